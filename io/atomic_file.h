@@ -1,0 +1,18 @@
+#pragma once
+// Atomic output: write to a temporary file beside the target, then rename over it.
+
+#include <functional>
+#include <string>
+
+namespace frontmesh::io {
+
+/// Calls `write(temp_path)` and renames the temporary file to `path` when it returns.
+/// On an exception the temporary file is removed and `path` is untouched. Creates the
+/// parent folder if needed. Throws IoError naming `path` when the rename fails.
+void write_atomically(const std::string& path,
+                      const std::function<void(const std::string& temp_path)>& write);
+
+/// Writes `text` to `path` atomically.
+void write_text_atomically(const std::string& path, const std::string& text);
+
+}  // namespace frontmesh::io

@@ -1,0 +1,35 @@
+#pragma once
+// Reading segmented or grayscale 3-D images with ITK into a LabelImage in physical mm.
+
+#include <optional>
+#include <string>
+
+#include <Eigen/Core>
+
+#include "pipeline/core/label_image.h"
+
+namespace frontmesh::io {
+
+struct ImageReadOptions {
+    /// Grayscale input: voxels with value > threshold become label 1, the rest 0.
+    std::optional<double> threshold;
+    /// Voxel spacing (mm) for TIFF/PNG slice stacks, which carry none; overrides the file's
+    /// spacing for other formats when set.
+    std::optional<Eigen::Vector3d> spacing;
+    /// Output frame: ITK's LPS, or the NIfTI/neuroimaging RAS world (x and y negated).
+    core::Frame frame = core::Frame::Lps;
+    /// Voxels of label 0 added on every side so that objects touching the border close.
+    int pad = 1;
+};
+
+/// Reads `path`: a file (.nii, .nii.gz, .mha, .mhd, .nrrd, .nhdr, or a single 3-D .tif),
+/// a folder holding a DICOM series or a TIFF/PNG slice stack (slices in name order), or a
+/// printf pattern such as "slices/img_%03d.png" (numbers from the lowest one found upward).
+/// Integer voxel types become labels as they are; float voxels must be integral unless
+/// `threshold` is set. Spacing, origin and direction are honoured.
+/// Throws InputError naming the path when it is missing, unreadable, not 3-D, has
+/// non-integral labels without a threshold, labels outside int32, or a slice stack
+/// without spacing.
+core::LabelImage read_label_image(const std::string& path, const ImageReadOptions& options);
+
+}  // namespace frontmesh::io

@@ -1,0 +1,86 @@
+#include "pipeline/core/quality.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <numbers>
+
+#include <Eigen/Geometry>
+
+namespace frontmesh::core {
+
+double triangle_area(const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+                     const Eigen::Vector3d& c) {
+    return 0.5 * (b - a).cross(c - a).norm();
+}
+
+double triangle_skewness(const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+                         const Eigen::Vector3d& c) {
+    const double area = triangle_area(a, b, c);
+    if (area <= 0.0) return 1.0;
+    // Circumradius R = |ab| |bc| |ca| / (4 area); equilateral area for R: 3 sqrt(3) / 4 R^2.
+    const double R = (b - a).norm() * (c - b).norm() * (a - c).norm() / (4.0 * area);
+    const double a_opt = 3.0 * std::sqrt(3.0) / 4.0 * R * R;  // Eq. 2
+    return std::clamp((a_opt - area) / a_opt, 0.0, 1.0);
+}
+
+double triangle_min_angle_deg(const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+                              const Eigen::Vector3d& c) {
+    const std::array<Eigen::Vector3d, 3> p{a, b, c};
+    double smallest = 180.0;
+    for (int i = 0; i < 3; ++i) {
+        const Eigen::Vector3d u = p[(i + 1) % 3] - p[i];
+        const Eigen::Vector3d v = p[(i + 2) % 3] - p[i];
+        const double angle = std::atan2(u.cross(v).norm(), u.dot(v));
+        smallest = std::min(smallest, angle * 180.0 / std::numbers::pi);
+    }
+    return smallest;
+}
+
+double tet_signed_volume(const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+                         const Eigen::Vector3d& c, const Eigen::Vector3d& d) {
+    return (b - a).cross(c - a).dot(d - a) / 6.0;
+}
+
+double tet_skewness(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c,
+                    const Eigen::Vector3d& d) {
+    const Eigen::Vector3d u = b - a, v = c - a, w = d - a;
+    const double det = u.dot(v.cross(w));
+    if (det == 0.0) return 1.0;
+    // Circumcentre offset from a: (|u|^2 v x w + |v|^2 w x u + |w|^2 u x v) / (2 det).
+    const Eigen::Vector3d offset =
+        (u.squaredNorm() * v.cross(w) + v.squaredNorm() * w.cross(u) + w.squaredNorm() * u.cross(v)) /
+        (2.0 * det);
+    const double R = offset.norm();
+    const double volume = std::abs(det) / 6.0;
+    const double v_opt = 8.0 * std::sqrt(3.0) / 27.0 * R * R * R;  // Eq. 1
+    return std::clamp((v_opt - volume) / v_opt, 0.0, 1.0);
+}
+
+double tet_min_dihedral_deg(const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+                            const Eigen::Vector3d& c, const Eigen::Vector3d& d) {
+    const std::array<Eigen::Vector3d, 4> p{a, b, c, d};
+    // Outward-agnostic face normals; face i is opposite vertex i.
+    std::array<Eigen::Vector3d, 4> n;
+    for (int i = 0; i < 4; ++i) {
+        const Eigen::Vector3d& p0 = p[(i + 1) % 4];
+        const Eigen::Vector3d& p1 = p[(i + 2) % 4];
+        const Eigen::Vector3d& p2 = p[(i + 3) % 4];
+        Eigen::Vector3d normal = (p1 - p0).cross(p2 - p0);
+        if (normal.dot(p[i] - p0) > 0.0) normal = -normal;  // make it point away from vertex i
+        const double length = normal.norm();
+        if (length == 0.0) return 0.0;
+        n[i] = normal / length;
+    }
+    double smallest = 180.0;
+    for (int i = 0; i < 4; ++i) {
+        for (int j = i + 1; j < 4; ++j) {
+            // Interior dihedral angle at the edge shared by faces i and j.
+            const double angle = std::numbers::pi - std::acos(std::clamp(n[i].dot(n[j]), -1.0, 1.0));
+            smallest = std::min(smallest, angle * 180.0 / std::numbers::pi);
+        }
+    }
+    return smallest;
+}
+
+}  // namespace frontmesh::core

@@ -1,0 +1,20 @@
+#pragma once
+// Self-intersection detection on a triangle surface network.
+
+#include <cstdint>
+#include <utility>
+#include <vector>
+
+#include "pipeline/core/surface_network.h"
+
+namespace frontmesh::core {
+
+/// Pairs (f, g), f < g, of faces that intersect other than in what they share by topology:
+/// faces sharing an edge intersect when they overlap beyond that edge (a fold onto each
+/// other); faces sharing one vertex when they meet anywhere else; other faces when they
+/// meet at all. Decisions are exact (core predicates). Sorted; at most `max_pairs` returned
+/// (0 = all). Cost: O(n log n) typical, uniform grid broad phase.
+std::vector<std::pair<std::int32_t, std::int32_t>> self_intersections(
+    const SurfaceNetwork& surface, std::size_t max_pairs = 0);
+
+}  // namespace frontmesh::core

@@ -1,0 +1,67 @@
+#pragma once
+// The triangle surface network handed between extract, repair and remesh (STYLE §2).
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "pipeline/core/ids.h"
+
+namespace frontmesh::core {
+
+/// Triangles that bound labelled regions. A face separates `region_in` (behind it) from
+/// `region_out` (in front of it); its vertex order is counter-clockwise seen from
+/// `region_out`, so the right-hand normal points out of `region_in`. An interface between
+/// two regions is stored once. Non-manifold where three or more regions meet.
+/// Memory: 24 B per vertex + 20 B per face (about 64 MB per million faces with vertices).
+struct SurfaceNetwork {
+    std::vector<double> xyz;                         ///< 3 per vertex, mm
+    std::vector<std::array<std::int32_t, 3>> faces;  ///< vertex ids
+    std::vector<Label> region_in;                    ///< per face, > 0
+    std::vector<Label> region_out;                   ///< per face, 0 = outside
+
+    std::size_t vertex_count() const { return xyz.size() / 3; }
+    std::size_t face_count() const { return faces.size(); }
+
+    Eigen::Map<const Eigen::Vector3d> point(std::int32_t v) const {
+        return Eigen::Map<const Eigen::Vector3d>(&xyz[3 * static_cast<std::size_t>(v)]);
+    }
+    Eigen::Map<Eigen::Vector3d> point(std::int32_t v) {
+        return Eigen::Map<Eigen::Vector3d>(&xyz[3 * static_cast<std::size_t>(v)]);
+    }
+    std::int32_t add_vertex(const Eigen::Vector3d& p) {
+        xyz.insert(xyz.end(), {p.x(), p.y(), p.z()});
+        return static_cast<std::int32_t>(vertex_count() - 1);
+    }
+    void add_face(std::int32_t a, std::int32_t b, std::int32_t c, Label in, Label out) {
+        faces.push_back({a, b, c});
+        region_in.push_back(in);
+        region_out.push_back(out);
+    }
+};
+
+/// Sorted list of the labels present (region_in and region_out), without 0.
+std::vector<Label> region_labels(const SurfaceNetwork& surface);
+
+/// Signed volume (mm^3) enclosed by the boundary of `region`, faces oriented outward.
+double enclosed_volume(const SurfaceNetwork& surface, Label region);
+
+/// Result of checking one region's boundary.
+struct RegionBoundaryCheck {
+    Label region = 0;
+    std::size_t faces = 0;
+    std::size_t open_edges = 0;          ///< edges with an odd number of this region's faces
+    std::size_t misoriented_edges = 0;   ///< edges whose faces disagree in orientation
+    std::size_t nonmanifold_edges = 0;   ///< edges with more than two of this region's faces
+    double volume = 0.0;                 ///< mm^3, positive when oriented outward
+    bool is_closed() const { return open_edges == 0; }
+    bool is_oriented() const { return misoriented_edges == 0 && volume > 0.0; }
+};
+
+/// Checks every region's boundary: closed, consistently oriented outward, manifold edges.
+/// Faces of an interface count for both regions (reversed for region_out).
+std::vector<RegionBoundaryCheck> check_region_boundaries(const SurfaceNetwork& surface);
+
+}  // namespace frontmesh::core

@@ -1,0 +1,34 @@
+#pragma once
+// Repair stage: SurfaceNetwork -> SurfaceNetwork, watertight, oriented, checked.
+
+#include <cstddef>
+
+#include "pipeline/core/stage_context.h"
+#include "pipeline/core/surface_network.h"
+
+namespace frontmesh::surface {
+
+/// Parameters of the repair stage; defaults equal configs/reference.yaml (`repair.*`).
+struct RepairParams {
+    double merge_tolerance_mm = 1e-6;     ///< points closer than this are merged
+    double min_component_volume_mm3 = 1.0;  ///< closed pieces enclosing less are removed
+    std::size_t min_component_faces = 0;  ///< pieces with fewer faces are removed too
+    std::size_t max_hole_edges = 200;     ///< larger holes are an error, not filled
+    bool fill_holes = true;
+    bool check_self_intersections = true;
+    bool fail_on_self_intersections = true;  ///< false: warn and go on
+};
+
+/// Throws InputError naming the key (`repair.*`) when a value is out of range.
+void validate(const RepairParams& params);
+
+/// Merges coincident points, drops degenerate and duplicate faces, removes small
+/// components, orients every face outward from region_in, fills holes up to
+/// `max_hole_edges`, splits non-manifold vertices that are not multi-material junctions,
+/// detects self-intersections, and verifies that every region's boundary is closed and
+/// consistently oriented. Counts of what changed go to `ctx` counters.
+/// Throws GeometryError naming the region and the place when it cannot repair.
+core::SurfaceNetwork repair(const core::SurfaceNetwork& input, const RepairParams& params,
+                            core::StageContext& ctx);
+
+}  // namespace frontmesh::surface
