@@ -1,0 +1,336 @@
+#include "pipeline/recipe.h"
+
+#include <algorithm>
+#include <filesystem>
+#include <functional>
+#include <sstream>
+
+#include <yaml-cpp/yaml.h>
+
+#include "pipeline/core/error.h"
+
+namespace frontmesh::pipeline {
+namespace {
+
+namespace fs = std::filesystem;
+
+// Where a value came from, for the one-line error: "recipe.yaml:12: input.image: ...".
+struct Where {
+    std::string origin;  // "path:line" or "--set"
+    std::string key;
+    [[noreturn]] void fail(const std::string& what) const {
+        FM_THROW(InputError, origin + ": " + key + ": " + what);
+    }
+};
+
+std::string describe(const YAML::Node& node) {
+    if (node.IsNull()) return "nothing";
+    if (node.IsSequence()) return "a list";
+    if (node.IsMap()) return "a mapping";
+    return "'" + node.Scalar() + "'";
+}
+
+double as_number(const YAML::Node& node, const Where& where, double lo, double hi) {
+    double value = 0.0;
+    if (!node.IsScalar() || !YAML::convert<double>::decode(node, value))
+        where.fail("expected a number, got " + describe(node));
+    if (!(value >= lo && value <= hi)) {
+        std::ostringstream s;
+        s << "must be in [" << lo << ", " << hi << "], got " << node.Scalar();
+        where.fail(s.str());
+    }
+    return value;
+}
+
+long long as_integer(const YAML::Node& node, const Where& where, long long lo, long long hi) {
+    long long value = 0;
+    if (!node.IsScalar() || !YAML::convert<long long>::decode(node, value))
+        where.fail("expected a whole number, got " + describe(node));
+    if (value < lo || value > hi)
+        where.fail("must be in [" + std::to_string(lo) + ", " + std::to_string(hi) + "], got " + node.Scalar());
+    return value;
+}
+
+bool as_bool(const YAML::Node& node, const Where& where) {
+    bool value = false;
+    if (!node.IsScalar() || !YAML::convert<bool>::decode(node, value))
+        where.fail("expected true or false, got " + describe(node));
+    return value;
+}
+
+std::string as_string(const YAML::Node& node, const Where& where) {
+    if (!node.IsScalar() || node.Scalar().empty()) where.fail("expected a non-empty text, got " + describe(node));
+    return node.Scalar();
+}
+
+std::string as_choice(const YAML::Node& node, const Where& where, const std::vector<std::string>& choices) {
+    const std::string value = node.IsScalar() ? node.Scalar() : std::string();
+    if (std::find(choices.begin(), choices.end(), value) == choices.end()) {
+        std::string list;
+        for (const auto& c : choices) list += (list.empty() ? "" : ", ") + c;
+        where.fail("expected one of " + list + ", got " + describe(node));
+    }
+    return value;
+}
+
+std::string resolve_input_path(const std::string& value, const std::string& recipe_path) {
+    fs::path p(value);
+    if (p.is_relative()) p = fs::path(recipe_path).parent_path() / p;
+    // A printf pattern (slice stacks) names no existing file itself; keep it lexical.
+    return p.lexically_normal().string();
+}
+
+std::size_t edit_distance(const std::string& a, const std::string& b) {
+    std::vector<std::size_t> row(b.size() + 1);
+    for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
+    for (std::size_t i = 1; i <= a.size(); ++i) {
+        std::size_t diagonal = row[0];
+        row[0] = i;
+        for (std::size_t j = 1; j <= b.size(); ++j) {
+            const std::size_t up = row[j];
+            row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
+            diagonal = up;
+        }
+    }
+    return row[b.size()];
+}
+
+struct KeySpec {
+    std::string path;
+    std::string default_yaml;
+    std::function<void(const YAML::Node&, Recipe&, const Where&)> apply;
+};
+
+const std::vector<KeySpec>& key_specs() {
+    static const std::vector<KeySpec> specs = {
+        {"input.image", "null",
+         [](const YAML::Node& n, Recipe& r, const Where& w) { r.input.image = resolve_input_path(as_string(n, w), r.path); }},
+        {"input.surface", "null",
+         [](const YAML::Node& n, Recipe& r, const Where& w) { r.input.surface = resolve_input_path(as_string(n, w), r.path); }},
+        {"input.labels", "all",
+         [](const YAML::Node& n, Recipe& r, const Where& w) {
+             r.input.labels.clear();
+             if (n.IsScalar() && n.Scalar() == "all") return;
+             if (!n.IsSequence()) w.fail("expected 'all' or a list of labels such as [1, 2], got " + describe(n));
+             if (n.size() == 0) w.fail("the list is empty; give at least one label, or 'all'");
+             for (std::size_t i = 0; i < n.size(); ++i) {
+                 const auto label = static_cast<core::Label>(as_integer(n[i], w, 1, INT32_MAX));
+                 if (std::find(r.input.labels.begin(), r.input.labels.end(), label) != r.input.labels.end())
+                     w.fail("label " + std::to_string(label) + " is listed twice");
+                 r.input.labels.push_back(label);
+             }
+             std::sort(r.input.labels.begin(), r.input.labels.end());
+         }},
+        {"input.threshold", "null",
+         [](const YAML::Node& n, Recipe& r, const Where& w) { r.input.threshold = as_number(n, w, -1e300, 1e300); }},
+        {"input.spacing", "null",
+         [](const YAML::Node& n, Recipe& r, const Where& w) {
+             if (!n.IsSequence() || n.size() != 3) w.fail("expected three numbers [x, y, z] in mm, got " + describe(n));
+             Eigen::Vector3d s;
+             for (int i = 0; i < 3; ++i) s[i] = as_number(n[i], w, 1e-6, 1e6);
+             r.input.spacing = s;
+         }},
+        {"output.dir", "frontmesh-out",
+         [](const YAML::Node& n, Recipe& r, const Where& w) {
+             r.output.dir = fs::absolute(fs::path(as_string(n, w))).lexically_normal().string();
+         }},
+        {"output.frame", "lps",
+         [](const YAML::Node& n, Recipe& r, const Where& w) {
+             r.output.frame = as_choice(n, w, {"lps", "ras"}) == "ras" ? core::Frame::Ras : core::Frame::Lps;
+         }},
+        {"extract.method", "auto",
+         [](const YAML::Node& n, Recipe& r, const Where& w) {
+             const std::string m = as_choice(n, w, {"auto", "flying_edges", "surface_nets"});
+             r.extract.method = m == "auto"           ? surface::ExtractMethod::Auto
+                                : m == "flying_edges" ? surface::ExtractMethod::FlyingEdges
+                                                      : surface::ExtractMethod::SurfaceNets;
+         }},
+        {"extract.blur_sigma_mm", "0.0",
+         [](const YAML::Node& n, Recipe& r, const Where& w) { r.extract.blur_sigma_mm = as_number(n, w, 0.0, 100.0); }},
+        {"extract.smoothing_iterations", "8",
+         [](const YAML::Node& n, Recipe& r, const Where& w) {
+             r.extract.smoothing_iterations = static_cast<int>(as_integer(n, w, 0, 1000));
+         }},
+        {"extract.smoothing_relaxation", "0.5",
+         [](const YAML::Node& n, Recipe& r, const Where& w) {
+             r.extract.smoothing_relaxation = as_number(n, w, 1e-6, 1.0);
+         }},
+        {"extract.manifold_cleanup", "true",
+         [](const YAML::Node& n, Recipe& r, const Where& w) { r.extract.manifold_cleanup = as_bool(n, w); }},
+        {"repair.merge_tolerance_mm", "1.0e-6",
+         [](const YAML::Node& n, Recipe& r, const Where& w) { r.repair.merge_tolerance_mm = as_number(n, w, 0.0, 1.0); }},
+        {"repair.min_component_volume_mm3", "1.0",
+         [](const YAML::Node& n, Recipe& r, const Where& w) {
+             r.repair.min_component_volume_mm3 = as_number(n, w, 0.0, 1e12);
+         }},
+        {"repair.min_component_faces", "0",
+         [](const YAML::Node& n, Recipe& r, const Where& w) {
+             r.repair.min_component_faces = static_cast<std::size_t>(as_integer(n, w, 0, 1'000'000'000));
+         }},
+        {"repair.max_hole_edges", "200",
+         [](const YAML::Node& n, Recipe& r, const Where& w) {
+             r.repair.max_hole_edges = static_cast<std::size_t>(as_integer(n, w, 3, 1'000'000));
+         }},
+        {"repair.fill_holes", "true",
+         [](const YAML::Node& n, Recipe& r, const Where& w) { r.repair.fill_holes = as_bool(n, w); }},
+        {"repair.check_self_intersections", "true",
+         [](const YAML::Node& n, Recipe& r, const Where& w) { r.repair.check_self_intersections = as_bool(n, w); }},
+        {"repair.fail_on_self_intersections", "true",
+         [](const YAML::Node& n, Recipe& r, const Where& w) { r.repair.fail_on_self_intersections = as_bool(n, w); }},
+    };
+    return specs;
+}
+
+// Stages named by the method whose sections a recipe may not use yet.
+const std::vector<std::pair<std::string, std::string>> kPlannedSections = {
+    {"remesh", "3"}, {"tetra", "4"}, {"refine", "5"}};
+
+[[noreturn]] void unknown_key(const std::string& key, const std::string& origin) {
+    std::string best;
+    std::size_t best_distance = key.size();
+    for (const auto& spec : key_specs()) {
+        for (const std::string& candidate : {spec.path, spec.path.substr(0, spec.path.find('.'))}) {
+            const std::size_t d = edit_distance(key, candidate);
+            if (d < best_distance) best_distance = d, best = candidate;
+        }
+    }
+    std::string message = origin + ": " + key + ": unknown key";
+    if (!best.empty() && best_distance <= std::max<std::size_t>(2, key.size() / 3))
+        message += "; did you mean '" + best + "'?";
+    else
+        message += " (see configs/reference.yaml for every key)";
+    FM_THROW(InputError, message);
+}
+
+void apply_key(const std::string& key, const YAML::Node& value, Recipe& recipe, const std::string& origin) {
+    for (const auto& spec : key_specs())
+        if (spec.path == key) {
+            if (value.IsNull() && spec.default_yaml == "null") return;  // explicit "not set"
+            spec.apply(value, recipe, Where{origin, key});
+            return;
+        }
+    const std::string section = key.substr(0, key.find('.'));
+    for (const auto& [name, issue] : kPlannedSections)
+        if (section == name)
+            FM_THROW(InputError, origin + ": " + key + ": the " + name +
+                                     " stage is not available in this version of frontmesh yet (issue " + issue + ")");
+    unknown_key(key, origin);
+}
+
+std::string origin_of(const std::string& path, const YAML::Node& node) {
+    const auto mark = node.Mark();
+    return mark.line >= 0 ? path + ":" + std::to_string(mark.line + 1) : path;
+}
+
+}  // namespace
+
+Recipe load_recipe(const std::string& path, const std::vector<std::string>& overrides) {
+    Recipe recipe;
+    if (!fs::exists(path)) FM_THROW(InputError, "recipe '" + path + "' does not exist");
+    recipe.path = fs::absolute(path).lexically_normal().string();
+    for (const auto& spec : key_specs())
+        if (spec.default_yaml != "null") spec.apply(YAML::Load(spec.default_yaml), recipe, Where{"defaults", spec.path});
+
+    YAML::Node root;
+    try {
+        root = YAML::LoadFile(path);
+    } catch (const YAML::Exception& e) {
+        FM_THROW(InputError, path + ":" + std::to_string(e.mark.line + 1) + ": YAML syntax error: " + e.msg);
+    }
+    if (!root.IsNull() && !root.IsMap()) FM_THROW(InputError, path + ": the recipe must be a mapping of sections");
+    std::vector<std::string> seen;
+    if (root.IsMap()) {
+        for (const auto& section : root) {
+            const std::string name = section.first.as<std::string>();
+            const std::string origin = origin_of(path, section.first);
+            if (!section.second.IsMap()) {
+                bool known = false;
+                for (const auto& spec : key_specs()) known |= spec.path.rfind(name + ".", 0) == 0;
+                if (!known) unknown_key(name, origin);
+                FM_THROW(InputError, origin + ": " + name + ": expected a section of keys, got " + describe(section.second));
+            }
+            for (const auto& entry : section.second) {
+                const std::string key = name + "." + entry.first.as<std::string>();
+                apply_key(key, entry.second, recipe, origin_of(path, entry.first));
+                seen.push_back(key);
+            }
+        }
+    }
+    for (const std::string& item : overrides) {
+        const auto eq = item.find('=');
+        if (eq == std::string::npos || eq == 0)
+            FM_THROW(InputError, "--set " + item + ": expected key.path=value");
+        const std::string key = item.substr(0, eq);
+        YAML::Node value;
+        try {
+            value = YAML::Load(item.substr(eq + 1));
+        } catch (const YAML::Exception& e) {
+            FM_THROW(InputError, "--set " + key + ": cannot read the value: " + e.msg);
+        }
+        // Relative paths given on the command line are relative to the current folder.
+        if ((key == "input.image" || key == "input.surface") && value.IsScalar())
+            value = YAML::Node(fs::absolute(value.Scalar()).lexically_normal().string());
+        apply_key(key, value, recipe, "--set");
+        seen.push_back(key);
+    }
+
+    auto origin_for = [&](const std::string& key) {
+        if (root.IsMap()) {
+            const auto dot = key.find('.');
+            const YAML::Node section = root[key.substr(0, dot)];
+            if (section.IsMap())
+                for (const auto& entry : section)
+                    if (entry.first.as<std::string>() == key.substr(dot + 1)) return origin_of(path, entry.first);
+        }
+        return std::find(seen.begin(), seen.end(), key) != seen.end() ? std::string("--set") : path;
+    };
+    const InputSection& in = recipe.input;
+    if (in.image.empty() == in.surface.empty())
+        FM_THROW(InputError, path + ": input: give exactly one of input.image or input.surface");
+    if (!in.image.empty() && !fs::exists(in.image) && in.image.find('%') == std::string::npos)
+        FM_THROW(InputError, origin_for("input.image") + ": input.image: '" + in.image + "' does not exist");
+    if (!in.surface.empty() && !fs::exists(in.surface))
+        FM_THROW(InputError, origin_for("input.surface") + ": input.surface: '" + in.surface + "' does not exist");
+    if (in.threshold && !(in.labels.empty() || in.labels == std::vector<core::Label>{1}))
+        FM_THROW(InputError, origin_for("input.labels") +
+                                 ": input.labels: with input.threshold the mask has the single label 1; use [1] or all");
+    recipe.extract.labels = in.labels;
+    surface::validate(recipe.extract);
+    surface::validate(recipe.repair);
+    return recipe;
+}
+
+std::vector<std::pair<std::string, std::string>> recipe_keys() {
+    std::vector<std::pair<std::string, std::string>> keys;
+    for (const auto& spec : key_specs()) keys.emplace_back(spec.path, spec.default_yaml);
+    return keys;
+}
+
+std::string canonical_params(const Recipe& recipe, const std::string& section) {
+    std::ostringstream s;
+    s.precision(17);
+    if (section == "input") {
+        s << "image=" << recipe.input.image << ";surface=" << recipe.input.surface << ";labels=";
+        for (auto l : recipe.input.labels) s << l << ',';
+        s << ";threshold=" << (recipe.input.threshold ? std::to_string(*recipe.input.threshold) : "none");
+        if (recipe.input.spacing) s << ";spacing=" << recipe.input.spacing->transpose();
+        s << ";frame=" << core::frame_name(recipe.output.frame);
+    } else if (section == "extract") {
+        const auto& e = recipe.extract;
+        s << "method=" << static_cast<int>(e.method) << ";blur=" << e.blur_sigma_mm
+          << ";iterations=" << e.smoothing_iterations << ";relaxation=" << e.smoothing_relaxation
+          << ";cleanup=" << e.manifold_cleanup;
+        for (auto l : e.labels) s << ";label=" << l;
+    } else if (section == "repair") {
+        const auto& p = recipe.repair;
+        s << "merge=" << p.merge_tolerance_mm << ";min_volume=" << p.min_component_volume_mm3
+          << ";min_faces=" << p.min_component_faces << ";max_hole=" << p.max_hole_edges
+          << ";fill=" << p.fill_holes << ";check_si=" << p.check_self_intersections
+          << ";fail_si=" << p.fail_on_self_intersections;
+    } else {
+        FM_CHECK(false && "unknown recipe section");
+    }
+    return s.str();
+}
+
+}  // namespace frontmesh::pipeline

@@ -1,0 +1,50 @@
+#pragma once
+// The YAML recipe: parsed, fully validated and typed before any work starts.
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "pipeline/core/label_image.h"
+#include "surface/extract.h"
+#include "surface/repair.h"
+
+namespace frontmesh::pipeline {
+
+struct InputSection {
+    std::string image;                 ///< image file or folder (absolute), or empty
+    std::string surface;               ///< triangle surface file (absolute), or empty
+    std::vector<core::Label> labels;   ///< empty = all
+    std::optional<double> threshold;   ///< grayscale: value > threshold is label 1
+    std::optional<Eigen::Vector3d> spacing;  ///< mm, slice stacks
+};
+
+struct OutputSection {
+    std::string dir;                    ///< absolute
+    core::Frame frame = core::Frame::Lps;
+};
+
+struct Recipe {
+    std::string path;  ///< the recipe file, absolute
+    InputSection input;
+    OutputSection output;
+    surface::ExtractParams extract;
+    surface::RepairParams repair;
+};
+
+/// Reads and validates `path`, then applies `overrides` ("key.path=value", YAML values).
+/// Relative input paths resolve against the recipe's folder, a relative output.dir against
+/// the current folder. Throws InputError with one line naming the file, line and key:
+/// unknown keys (with a did-you-mean), wrong types, out-of-range values, missing files.
+Recipe load_recipe(const std::string& path, const std::vector<std::string>& overrides = {});
+
+/// Every recipe key with its default value as YAML text, in documentation order
+/// (used by `frontmesh --help` and checked against configs/reference.yaml by the tests).
+std::vector<std::pair<std::string, std::string>> recipe_keys();
+
+/// Canonical text of a stage's parameters (the recipe section it reads), for stage hashes.
+std::string canonical_params(const Recipe& recipe, const std::string& section);
+
+}  // namespace frontmesh::pipeline

@@ -1,0 +1,109 @@
+#include "pipeline/report.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <sstream>
+
+#include "pipeline/core/quality.h"
+
+namespace frontmesh::pipeline {
+namespace {
+
+struct SurfaceFigures {
+    std::size_t vertices = 0, faces = 0, regions = 0, closed = 0, oriented = 0;
+    double eta_mean = 0, eta_max = 0, min_angle_min = 180, below20 = 0, below30 = 0;
+    std::vector<core::RegionBoundaryCheck> checks;
+};
+
+SurfaceFigures figures(const core::SurfaceNetwork& s) {
+    SurfaceFigures f;
+    f.vertices = s.vertex_count();
+    f.faces = s.face_count();
+    for (const auto& t : s.faces) {
+        const auto a = s.point(t[0]), b = s.point(t[1]), c = s.point(t[2]);
+        const double eta = core::triangle_skewness(a, b, c);
+        const double angle = core::triangle_min_angle_deg(a, b, c);
+        f.eta_mean += eta;
+        f.eta_max = std::max(f.eta_max, eta);
+        f.min_angle_min = std::min(f.min_angle_min, angle);
+        f.below20 += angle < 20.0;
+        f.below30 += angle < 30.0;
+    }
+    if (f.faces) {
+        f.eta_mean /= double(f.faces);
+        f.below20 /= double(f.faces);
+        f.below30 /= double(f.faces);
+    }
+    f.checks = core::check_region_boundaries(s);
+    f.regions = f.checks.size();
+    for (const auto& c : f.checks) {
+        f.closed += c.is_closed();
+        f.oriented += c.is_oriented();
+    }
+    return f;
+}
+
+}  // namespace
+
+std::string json_quote(const std::string& text) {
+    std::string out = "\"";
+    for (unsigned char c : text) {
+        switch (c) {
+            case '"': out += "\\\""; break;
+            case '\\': out += "\\\\"; break;
+            case '\n': out += "\\n"; break;
+            case '\t': out += "\\t"; break;
+            case '\r': out += "\\r"; break;
+            default:
+                if (c < 0x20) {
+                    char buf[8];
+                    std::snprintf(buf, sizeof buf, "\\u%04x", c);
+                    out += buf;
+                } else {
+                    out += static_cast<char>(c);
+                }
+        }
+    }
+    return out + "\"";
+}
+
+std::string json_number(double value) {
+    if (!std::isfinite(value)) return "null";
+    std::ostringstream s;
+    s.precision(10);
+    s << value;
+    return s.str();
+}
+
+std::string surface_figures_json(const core::SurfaceNetwork& surface) {
+    const SurfaceFigures f = figures(surface);
+    std::ostringstream s;
+    s << "{\"vertices\": " << f.vertices << ", \"faces\": " << f.faces << ", \"regions\": " << f.regions
+      << ", \"regions_closed\": " << f.closed << ", \"regions_oriented\": " << f.oriented
+      << ", \"eta_mean\": " << json_number(f.eta_mean) << ", \"eta_max\": " << json_number(f.eta_max)
+      << ", \"min_angle_deg\": " << json_number(f.min_angle_min)
+      << ", \"fraction_min_angle_below_20\": " << json_number(f.below20)
+      << ", \"fraction_min_angle_below_30\": " << json_number(f.below30) << ", \"region_boundaries\": [";
+    for (std::size_t i = 0; i < f.checks.size(); ++i) {
+        const auto& c = f.checks[i];
+        s << (i ? ", " : "") << "{\"region\": " << c.region << ", \"faces\": " << c.faces
+          << ", \"volume_mm3\": " << json_number(c.volume) << ", \"open_edges\": " << c.open_edges
+          << ", \"misoriented_edges\": " << c.misoriented_edges << ", \"nonmanifold_edges\": " << c.nonmanifold_edges
+          << "}";
+    }
+    s << "]}";
+    return s.str();
+}
+
+std::string surface_figures_line(const core::SurfaceNetwork& surface) {
+    const SurfaceFigures f = figures(surface);
+    char buf[320];
+    std::snprintf(buf, sizeof buf,
+                  "%zu vertices, %zu faces, %zu regions (%zu closed, %zu oriented), eta mean %.3f max %.3f, "
+                  "min angle %.1f deg",
+                  f.vertices, f.faces, f.regions, f.closed, f.oriented, f.eta_mean, f.eta_max, f.min_angle_min);
+    return buf;
+}
+
+}  // namespace frontmesh::pipeline

@@ -1,0 +1,383 @@
+#include "pipeline/runner.h"
+
+#include <sys/resource.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdio>
+#include <ctime>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <sstream>
+#include <variant>
+
+#include "io/atomic_file.h"
+#include "io/image_reader.h"
+#include "io/mesh_io.h"
+#include "pipeline/core/error.h"
+#include "pipeline/report.h"
+
+#ifndef FRONTMESH_VERSION
+#define FRONTMESH_VERSION "0.0.0"
+#endif
+
+namespace frontmesh::pipeline {
+namespace {
+
+namespace fs = std::filesystem;
+using StageData = std::variant<std::monostate, core::LabelImage, core::SurfaceNetwork>;
+
+struct StageDef {
+    std::string name;
+    int number;  // NN of checkpoints/NN-name.vtu, fixed by the method's order
+};
+
+const std::vector<StageDef>& stage_defs() {
+    static const std::vector<StageDef> defs = {{"extract", 1}, {"repair", 2}};
+    return defs;
+}
+
+// FNV-1a, 64 bit: stage hashes decide whether a checkpoint is up to date.
+struct Hash {
+    std::uint64_t value = 1469598103934665603ull;
+    void add(const void* data, std::size_t size) {
+        const auto* bytes = static_cast<const unsigned char*>(data);
+        for (std::size_t i = 0; i < size; ++i) value = (value ^ bytes[i]) * 1099511628211ull;
+    }
+    void add(const std::string& text) { add(text.data(), text.size() + 1); }
+    void add_file(const fs::path& path) {
+        std::ifstream in(path, std::ios::binary);
+        std::vector<char> buffer(1 << 20);
+        while (in) {
+            in.read(buffer.data(), static_cast<std::streamsize>(buffer.size()));
+            add(buffer.data(), static_cast<std::size_t>(in.gcount()));
+        }
+    }
+    std::string hex() const {
+        char buf[17];
+        std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(value));
+        return buf;
+    }
+};
+
+// The bytes of the input: a file, every file of a folder, or the files a pattern names.
+std::string input_hash(const Recipe& recipe) {
+    Hash h;
+    h.add(std::string("frontmesh ") + FRONTMESH_VERSION);
+    h.add(canonical_params(recipe, "input"));
+    const std::string source = recipe.input.image.empty() ? recipe.input.surface : recipe.input.image;
+    std::vector<fs::path> files;
+    if (fs::is_directory(source)) {
+        for (const auto& entry : fs::directory_iterator(source))
+            if (entry.is_regular_file()) files.push_back(entry.path());
+    } else if (fs::exists(source)) {
+        files.push_back(source);
+    } else {  // printf pattern: hash the folder it names
+        const fs::path folder = fs::path(source).parent_path();
+        if (fs::is_directory(folder))
+            for (const auto& entry : fs::directory_iterator(folder))
+                if (entry.is_regular_file()) files.push_back(entry.path());
+    }
+    std::sort(files.begin(), files.end());
+    for (const auto& f : files) {
+        h.add(f.filename().string());
+        h.add_file(f);
+    }
+    return h.hex();
+}
+
+double peak_rss_mb() {
+    rusage usage{};
+    getrusage(RUSAGE_SELF, &usage);
+    return static_cast<double>(usage.ru_maxrss) / 1024.0;  // ru_maxrss is in KiB on Linux
+}
+
+std::string now_text() {
+    const std::time_t t = std::time(nullptr);
+    char buf[32];
+    std::strftime(buf, sizeof buf, "%Y-%m-%d %H:%M:%S", std::localtime(&t));
+    return buf;
+}
+
+std::string read_text(const fs::path& path) {
+    std::ifstream in(path);
+    std::stringstream s;
+    s << in.rdbuf();
+    return s.str();
+}
+
+// Log lines go to the terminal and to frontmesh.log; until the output folder exists they
+// are kept in memory, so a run that fails on bad input leaves no folder behind.
+class Log {
+public:
+    Log(bool quiet) : quiet_(quiet), tty_(isatty(STDERR_FILENO)) {}
+
+    void open(const fs::path& file) {
+        file_.open(file, std::ios::app);
+        for (const auto& line : pending_) file_ << line << '\n';
+        pending_.clear();
+        file_.flush();
+    }
+    void line(core::LogLevel level, const std::string& message) {
+        if (level == core::LogLevel::Debug) return write_file("DEBUG " + message);
+        const std::string prefix = level == core::LogLevel::Warning ? "warning: " : "";
+        clear_progress();
+        std::cerr << prefix << message << '\n';
+        write_file((level == core::LogLevel::Warning ? "WARN  " : "INFO  ") + message);
+    }
+    void progress(const std::string& stage, double fraction, const std::string& what) {
+        if (quiet_) return;
+        const int percent = static_cast<int>(fraction * 100.0 + 0.5);
+        char buf[200];
+        std::snprintf(buf, sizeof buf, "  %-8s %3d%%  %s", stage.c_str(), percent, what.c_str());
+        if (tty_) {
+            std::cerr << "\r\033[K" << buf << std::flush;
+            progress_shown_ = true;
+        } else if (what != last_what_) {
+            std::cerr << buf << '\n';
+        }
+        last_what_ = what;
+    }
+    void clear_progress() {
+        if (progress_shown_) std::cerr << "\r\033[K" << std::flush;
+        progress_shown_ = false;
+    }
+
+private:
+    void write_file(const std::string& text) {
+        std::string stamped(1, '[');
+        stamped.append(now_text()).append("] ").append(text);
+        if (file_.is_open()) {
+            file_ << stamped << '\n';
+            file_.flush();
+        } else {
+            pending_.push_back(stamped);
+        }
+    }
+    bool quiet_, tty_;
+    bool progress_shown_ = false;
+    std::string last_what_;
+    std::ofstream file_;
+    std::vector<std::string> pending_;
+};
+
+struct Outputs {
+    fs::path dir;
+    fs::path checkpoint(const StageDef& s) const {
+        char buf[64];
+        std::snprintf(buf, sizeof buf, "%02d-%s.vtu", s.number, s.name.c_str());
+        return dir / "checkpoints" / buf;
+    }
+    fs::path with_ext(const StageDef& s, const std::string& ext) const {
+        return checkpoint(s).replace_extension(ext);
+    }
+};
+
+core::SurfaceNetwork read_checkpoint_surface(const fs::path& path) {
+    return io::read_surface(path.string());
+}
+
+}  // namespace
+
+const std::vector<std::string>& stage_names() {
+    static const std::vector<std::string> names = [] {
+        std::vector<std::string> n;
+        for (const auto& s : stage_defs()) n.push_back(s.name);
+        return n;
+    }();
+    return names;
+}
+
+std::string run_recipe(const Recipe& recipe, const RunOptions& options) {
+    const auto& stages = stage_defs();
+    const auto run_start = std::chrono::steady_clock::now();
+    Log log(options.quiet);
+    auto info = [&](const std::string& m) { log.line(core::LogLevel::Info, m); };
+    auto index_of = [&](const std::string& name, const char* flag) {
+        for (std::size_t i = 0; i < stages.size(); ++i)
+            if (stages[i].name == name) return static_cast<int>(i);
+        std::string list;
+        for (const auto& s : stages) list += (list.empty() ? "" : ", ") + s.name;
+        FM_THROW(InputError, std::string(flag) + " " + name + ": unknown stage; stages: " + list);
+    };
+
+    // A surface input enters at the stage after repair; until remesh exists, at repair.
+    const bool surface_input = !recipe.input.surface.empty();
+    const int entry = surface_input ? index_of("repair", "input.surface") : 0;
+    const int last = options.until.empty() ? static_cast<int>(stages.size()) - 1 : index_of(options.until, "--until");
+    int first = options.from.empty() ? -1 : index_of(options.from, "--from");
+    if (first >= 0 && first < entry)
+        FM_THROW(InputError, "--from " + options.from + ": a run from input.surface starts at " + stages[entry].name +
+                                 " or later");
+    if (first > last) FM_THROW(InputError, "--from " + options.from + " comes after --until " + options.until);
+
+    const Outputs out{recipe.output.dir};
+    const std::string frame = core::frame_name(recipe.output.frame);
+
+    // Stage hashes chain the input's bytes and every earlier stage's parameters.
+    std::vector<std::string> hashes(stages.size());
+    {
+        std::string previous = input_hash(recipe);
+        for (int i = entry; i < static_cast<int>(stages.size()); ++i) {
+            Hash h;
+            h.add(previous);
+            h.add(stages[i].name);
+            h.add(canonical_params(recipe, stages[i].name));
+            hashes[i] = previous = h.hex();
+        }
+    }
+    auto is_up_to_date = [&](int i) {
+        return fs::exists(out.checkpoint(stages[i])) && fs::exists(out.with_ext(stages[i], ".hash")) &&
+               read_text(out.with_ext(stages[i], ".hash")) == hashes[i] + "\n";
+    };
+    if (first < 0) {
+        first = entry;
+        while (!options.force && first <= last && is_up_to_date(first)) ++first;
+    } else if (first > entry && !fs::exists(out.checkpoint(stages[first - 1]))) {
+        FM_THROW(InputError, "--from " + options.from + ": checkpoint '" + out.checkpoint(stages[first - 1]).string() +
+                                 "' does not exist; run the earlier stages first");
+    }
+
+    // Input of the first stage to run: the image, the surface, or the previous checkpoint.
+    StageData data;
+    if (first <= last) {
+        if (first == entry && !surface_input) {
+            io::ImageReadOptions read;
+            read.threshold = recipe.input.threshold;
+            read.spacing = recipe.input.spacing;
+            read.frame = recipe.output.frame;
+            info("reading image " + recipe.input.image);
+            data = io::read_label_image(recipe.input.image, read);
+            const auto& image = std::get<core::LabelImage>(data);
+            char buf[200];
+            std::snprintf(buf, sizeof buf, "image %d x %d x %d voxels (padded), spacing %.3g x %.3g x %.3g mm, frame %s",
+                          image.dims[0], image.dims[1], image.dims[2], image.spacing.x(), image.spacing.y(),
+                          image.spacing.z(), frame.c_str());
+            info(buf);
+        } else if (first == entry) {
+            info("reading surface " + recipe.input.surface);
+            data = io::read_surface(recipe.input.surface);
+        } else {
+            info("reading checkpoint " + out.checkpoint(stages[first - 1]).string());
+            data = read_checkpoint_surface(out.checkpoint(stages[first - 1]));
+        }
+    }
+
+    bool folder_ready = false;
+    auto prepare_folder = [&] {
+        if (folder_ready) return;
+        fs::create_directories(out.dir / "checkpoints");
+        log.open(out.dir / "frontmesh.log");
+        folder_ready = true;
+    };
+    auto write_summary = [&](const std::string& status, const std::string& error) {
+        std::ostringstream s;
+        s << "{\n  \"frontmesh_version\": " << json_quote(FRONTMESH_VERSION) << ",\n  \"recipe\": "
+          << json_quote(recipe.path) << ",\n  \"input\": "
+          << json_quote(surface_input ? recipe.input.surface : recipe.input.image) << ",\n  \"frame\": "
+          << json_quote(frame) << ",\n  \"status\": " << json_quote(status) << ",\n  \"error\": "
+          << (error.empty() ? "null" : json_quote(error)) << ",\n  \"stages\": [";
+        bool any = false;
+        for (int i = entry; i <= last; ++i) {
+            const fs::path part = out.with_ext(stages[i], ".json");
+            if (!fs::exists(part)) continue;
+            s << (any ? ",\n    " : "\n    ") << read_text(part);
+            any = true;
+        }
+        s << "\n  ],\n  \"total_wall_s\": "
+          << json_number(std::chrono::duration<double>(std::chrono::steady_clock::now() - run_start).count())
+          << "\n}\n";
+        io::write_text_atomically((out.dir / "summary.json").string(), s.str());
+    };
+    auto write_pvd = [&] {
+        std::vector<std::pair<std::string, std::string>> entries;
+        for (int i = entry; i < static_cast<int>(stages.size()); ++i)
+            if (fs::exists(out.checkpoint(stages[i])))
+                entries.emplace_back(fs::relative(out.checkpoint(stages[i]), out.dir).string(), stages[i].name);
+        io::write_pvd((out.dir / "run.pvd").string(), entries);
+    };
+
+    if (first > last) info("every stage up to " + stages[last].name + " is up to date; nothing to run");
+    for (int i = entry; i < first && i <= last; ++i) {
+        if (!fs::exists(out.with_ext(stages[i], ".json"))) continue;
+        // Mark the reused stage as skipped in its summary entry.
+        std::string part = read_text(out.with_ext(stages[i], ".json"));
+        const std::string ran = "\"status\": \"ran\"";
+        if (const auto at = part.find(ran); at != std::string::npos) part.replace(at, ran.size(), "\"status\": \"skipped\"");
+        prepare_folder();
+        io::write_text_atomically(out.with_ext(stages[i], ".json").string(), part);
+    }
+
+    for (int i = first; i <= last; ++i) {
+        const StageDef& stage = stages[i];
+        core::StageContext ctx(
+            [&](double fraction, const std::string& what) { log.progress(stage.name, fraction, what); },
+            [&](core::LogLevel level, const std::string& m) { log.line(level, m); });
+        std::string heading(1, '[');
+        heading.append(std::to_string(i + 1)).append("/").append(std::to_string(last + 1)).append("] ");
+        info(heading + stage.name);
+        const auto t0 = std::chrono::steady_clock::now();
+        try {
+            if (stage.name == "extract") {
+                data = surface::extract(std::get<core::LabelImage>(data), recipe.extract, ctx);
+            } else if (stage.name == "repair") {
+                data = surface::repair(std::get<core::SurfaceNetwork>(data), recipe.repair, ctx);
+            }
+        } catch (const core::InputError&) {
+            log.clear_progress();
+            throw;
+        } catch (const core::Error& e) {
+            log.clear_progress();
+            prepare_folder();
+            log.line(core::LogLevel::Warning, stage.name + " failed: " + e.what() + " [" + e.where() + "]");
+            fs::remove(out.with_ext(stage, ".json"));
+            write_summary("failed", stage.name + ": " + e.what());
+            throw;
+        }
+        log.clear_progress();
+        const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        const auto& surface = std::get<core::SurfaceNetwork>(data);
+
+        prepare_folder();
+        io::write_surface_vtu(surface, out.checkpoint(stage).string(),
+                              {{"frame", frame}, {"stage", stage.name}, {"frontmesh_version", FRONTMESH_VERSION}});
+        std::ostringstream part;
+        part << "{\"name\": " << json_quote(stage.name) << ", \"status\": \"ran\", \"wall_s\": " << json_number(wall)
+             << ", \"peak_rss_mb\": " << json_number(peak_rss_mb()) << ", \"checkpoint\": "
+             << json_quote(fs::relative(out.checkpoint(stage), out.dir).string()) << ", \"hash\": "
+             << json_quote(hashes[i]) << ",\n     \"counters\": {";
+        bool any = false;
+        for (const auto& [name, value] : ctx.counters()) {
+            part << (any ? ", " : "") << json_quote(name) << ": " << json_number(value);
+            any = true;
+        }
+        part << "},\n     \"warnings\": [";
+        for (std::size_t w = 0; w < ctx.warnings().size(); ++w)
+            part << (w ? ", " : "") << json_quote(ctx.warnings()[w]);
+        part << "],\n     \"quality\": " << surface_figures_json(surface) << "}";
+        io::write_text_atomically(out.with_ext(stage, ".json").string(), part.str());
+        io::write_text_atomically(out.with_ext(stage, ".hash").string(), hashes[i] + "\n");
+        char buf[120];
+        std::snprintf(buf, sizeof buf, "%s done in %.2f s, peak memory %.0f MB: ", stage.name.c_str(), wall,
+                      peak_rss_mb());
+        info(buf + surface_figures_line(surface));
+    }
+
+    // The final result: the last surface (mesh.vtu once the volume stages exist).
+    const fs::path result = out.dir / "surface.vtu";
+    prepare_folder();
+    if (first <= last) {
+        io::write_surface_vtu(std::get<core::SurfaceNetwork>(data), result.string(),
+                              {{"frame", frame}, {"stage", stages[last].name}, {"frontmesh_version", FRONTMESH_VERSION}});
+    } else if (!fs::exists(result) || read_text(out.with_ext(stages[last], ".hash")) != hashes[last] + "\n" ||
+               fs::last_write_time(result) < fs::last_write_time(out.checkpoint(stages[last]))) {
+        io::write_surface_vtu(read_checkpoint_surface(out.checkpoint(stages[last])), result.string(),
+                              {{"frame", frame}, {"stage", stages[last].name}, {"frontmesh_version", FRONTMESH_VERSION}});
+    }
+    write_pvd();
+    write_summary("ok", "");
+    return result.string();
+}
+
+}  // namespace frontmesh::pipeline

@@ -1,0 +1,554 @@
+#include "surface/extract.h"
+
+#include <algorithm>
+#include <array>
+#include <bit>
+#include <cstdint>
+#include <map>
+#include <set>
+#include <sstream>
+
+#include <vtkCellArray.h>
+#include <vtkDiscreteFlyingEdges3D.h>
+#include <vtkFlyingEdges3D.h>
+#include <vtkFloatArray.h>
+#include <vtkImageData.h>
+#include <vtkImageGaussianSmooth.h>
+#include <vtkNew.h>
+#include <vtkPointData.h>
+#include <vtkPolyData.h>
+#include <vtkUnsignedCharArray.h>
+
+#include "pipeline/core/error.h"
+
+namespace frontmesh::surface {
+namespace {
+
+using core::Label;
+
+// Octant o = x + 2y + 4z of a 2x2x2 block of voxels; face neighbours differ in one bit.
+constexpr std::array<std::array<int, 3>, 8> kOctant = {{{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {1, 1, 0},
+                                                        {0, 0, 1}, {1, 0, 1}, {0, 1, 1}, {1, 1, 1}}};
+
+// True when the octants in `mask` are connected through shared faces inside the block.
+bool is_face_connected(unsigned mask) {
+    if (mask == 0) return true;
+    unsigned seen = 1u << std::countr_zero(mask);
+    for (bool grew = true; grew;) {
+        grew = false;
+        for (int o = 0; o < 8; ++o) {
+            if (!(seen >> o & 1u)) continue;
+            for (int bit = 0; bit < 3; ++bit) {
+                const int n = o ^ (1 << bit);
+                if ((mask >> n & 1u) && !(seen >> n & 1u)) {
+                    seen |= 1u << n;
+                    grew = true;
+                }
+            }
+        }
+    }
+    return seen == mask;
+}
+
+const std::array<bool, 256>& connectivity_table() {
+    static const std::array<bool, 256> table = [] {
+        std::array<bool, 256> t{};
+        for (unsigned m = 0; m < 256; ++m) t[m] = is_face_connected(m);
+        return t;
+    }();
+    return table;
+}
+
+// The boundary of a label inside a block is a disc iff the label's octants and the rest are
+// both face-connected (the link of the block's centre vertex is then a single circle).
+bool is_manifold_block(unsigned mask) {
+    const auto& connected = connectivity_table();
+    return mask == 0 || mask == 255 || (connected[mask] && connected[~mask & 255u]);
+}
+
+struct Grid {
+    std::array<int, 3> n;
+    std::vector<Label>& labels;
+    std::size_t index(int i, int j, int k) const {
+        return (static_cast<std::size_t>(k) * n[1] + j) * n[0] + i;
+    }
+};
+
+// Edits single voxels until every non-zero label's boundary is a 2-manifold. The label
+// that is not manifold in a block grows: it takes the voxel bridging its pieces, or the
+// smallest piece of the rest that it encloses. Returns the number of voxels changed.
+// True when `label` is manifold in every block holding voxel (i, j, k).
+bool is_manifold_around(const Grid& grid, int i, int j, int k, Label label) {
+    for (int dk = -1; dk <= 0; ++dk)
+        for (int dj = -1; dj <= 0; ++dj)
+            for (int di = -1; di <= 0; ++di) {
+                const int bi = i + di, bj = j + dj, bk = k + dk;
+                if (bi < 0 || bj < 0 || bk < 0 || bi + 1 >= grid.n[0] || bj + 1 >= grid.n[1] || bk + 1 >= grid.n[2])
+                    continue;
+                unsigned m = 0;
+                for (int o = 0; o < 8; ++o)
+                    m |= (grid.labels[grid.index(bi + kOctant[o][0], bj + kOctant[o][1], bk + kOctant[o][2])] == label ? 1u : 0u) << o;
+                if (!is_manifold_block(m)) return false;
+            }
+    return true;
+}
+
+// Second phase, which always ends: a label pinched in a block gives up one voxel there, to
+// the most frequent face neighbour label that stays manifold around it, else to the
+// outside. A label only loses voxels on its own account, so the number of voxels of the
+// pinched labels falls with every change.
+std::size_t shrink_pinches(Grid grid) {
+    std::size_t changed = 0;
+    for (bool again = true; again;) {
+        again = false;
+        for (int k = 0; k + 1 < grid.n[2]; ++k)
+            for (int j = 0; j + 1 < grid.n[1]; ++j)
+                for (int i = 0; i + 1 < grid.n[0]; ++i) {
+                    for (int attempt = 0; attempt < 8; ++attempt) {
+                        std::array<std::size_t, 8> at;
+                        for (int o = 0; o < 8; ++o)
+                            at[o] = grid.index(i + kOctant[o][0], j + kOctant[o][1], k + kOctant[o][2]);
+                        Label bad = 0;
+                        unsigned mask = 0;
+                        for (int o = 0; o < 8 && bad == 0; ++o) {
+                            const Label x = grid.labels[at[o]];
+                            if (x == 0) continue;
+                            unsigned m = 0;
+                            for (int q = 0; q < 8; ++q) m |= (grid.labels[at[q]] == x ? 1u : 0u) << q;
+                            if (!is_manifold_block(m)) bad = x, mask = m;
+                        }
+                        if (bad == 0) break;
+                        // The voxel of `bad` whose removal mends the block, else the one with
+                        // fewest neighbours of its own label.
+                        int best = -1, best_score = 1 << 30;
+                        for (int o = 0; o < 8; ++o) {
+                            if (!(mask >> o & 1u)) continue;
+                            int own = 0;
+                            for (int bit = 0; bit < 3; ++bit) own += mask >> (o ^ (1 << bit)) & 1u;
+                            const int score = (is_manifold_block(mask & ~(1u << o)) ? 0 : 100) + own;
+                            if (score < best_score) best = o, best_score = score;
+                        }
+                        const int vi = i + kOctant[best][0], vj = j + kOctant[best][1], vk = k + kOctant[best][2];
+                        std::map<Label, int> votes;
+                        const int step[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+                        for (const auto& d : step) {
+                            const int a = vi + d[0], b = vj + d[1], c = vk + d[2];
+                            if (a < 0 || b < 0 || c < 0 || a >= grid.n[0] || b >= grid.n[1] || c >= grid.n[2]) continue;
+                            const Label l = grid.labels[grid.index(a, b, c)];
+                            if (l != bad && l != 0) ++votes[l];
+                        }
+                        std::vector<std::pair<int, Label>> order;
+                        for (const auto& [l, v] : votes) order.push_back({-v, l});
+                        std::sort(order.begin(), order.end());
+                        Label target = 0;
+                        const std::size_t voxel = grid.index(vi, vj, vk);
+                        for (const auto& [negative_votes, l] : order) {
+                            grid.labels[voxel] = l;
+                            if (is_manifold_around(grid, vi, vj, vk, l)) {
+                                target = l;
+                                break;
+                            }
+                        }
+                        grid.labels[voxel] = target;
+                        ++changed;
+                        again = true;
+                    }
+                }
+    }
+    return changed;
+}
+
+std::size_t make_boundaries_manifold(Grid grid, int max_passes, bool& converged) {
+    std::size_t changed = 0;
+    converged = false;
+    for (int pass = 0; pass < max_passes; ++pass) {
+        std::size_t changed_this_pass = 0;
+        for (int k = 0; k + 1 < grid.n[2]; ++k)
+            for (int j = 0; j + 1 < grid.n[1]; ++j)
+                for (int i = 0; i + 1 < grid.n[0]; ++i) {
+                    std::array<std::size_t, 8> at;
+                    for (int o = 0; o < 8; ++o)
+                        at[o] = grid.index(i + kOctant[o][0], j + kOctant[o][1], k + kOctant[o][2]);
+                    const Label first = grid.labels[at[0]];
+                    bool uniform = true;
+                    for (int o = 1; o < 8 && uniform; ++o) uniform = grid.labels[at[o]] == first;
+                    if (uniform) continue;
+                    for (int attempt = 0; attempt < 16; ++attempt) {
+                        // Find the smallest non-zero label whose boundary is pinched here.
+                        Label bad = 0;
+                        unsigned mask = 0;
+                        for (int o = 0; o < 8; ++o) {
+                            const Label x = grid.labels[at[o]];
+                            if (x == 0 || (bad != 0 && x >= bad)) continue;
+                            unsigned m = 0;
+                            for (int q = 0; q < 8; ++q) m |= (grid.labels[at[q]] == x ? 1u : 0u) << q;
+                            if (!is_manifold_block(m)) {
+                                bad = x;
+                                mask = m;
+                            }
+                        }
+                        if (bad == 0) break;
+                        if (!connectivity_table()[mask]) {
+                            // Bridge: the other octant with most neighbours of `bad`.
+                            int best = -1, best_count = -1;
+                            for (int o = 0; o < 8; ++o) {
+                                if (mask >> o & 1u) continue;
+                                int count = 0;
+                                for (int bit = 0; bit < 3; ++bit) count += mask >> (o ^ (1 << bit)) & 1u;
+                                if (count > best_count) best = o, best_count = count;
+                            }
+                            grid.labels[at[best]] = bad;
+                            ++changed_this_pass;
+                        } else {
+                            // Fill the smallest face-connected piece of the rest.
+                            unsigned rest = ~mask & 255u, smallest = 0;
+                            while (rest) {
+                                unsigned piece = 1u << std::countr_zero(rest);
+                                for (bool grew = true; grew;) {
+                                    grew = false;
+                                    for (int o = 0; o < 8; ++o)
+                                        if (piece >> o & 1u)
+                                            for (int bit = 0; bit < 3; ++bit) {
+                                                const int n = o ^ (1 << bit);
+                                                if ((rest >> n & 1u) && !(piece >> n & 1u)) piece |= 1u << n, grew = true;
+                                            }
+                                }
+                                if (smallest == 0 || std::popcount(piece) < std::popcount(smallest)) smallest = piece;
+                                rest &= ~piece;
+                            }
+                            for (int o = 0; o < 8; ++o)
+                                if (smallest >> o & 1u) grid.labels[at[o]] = bad, ++changed_this_pass;
+                        }
+                    }
+                }
+        changed += changed_this_pass;
+        if (changed_this_pass == 0) {
+            converged = true;
+            break;
+        }
+    }
+    return changed;
+}
+
+// Maps index-space points to the image's physical frame, and reports whether that map
+// reverses orientation (then every face is flipped to stay outward).
+struct IndexToPhysical {
+    const core::LabelImage& image;
+    Eigen::Vector3d operator()(const Eigen::Vector3d& index) const { return image.physical(index); }
+    bool is_reflection() const {
+        return (image.direction * image.spacing.asDiagonal()).determinant() < 0.0;
+    }
+};
+
+core::SurfaceNetwork surface_nets(const core::LabelImage& image, std::vector<Label>& labels,
+                                  const ExtractParams& params, core::StageContext& ctx) {
+    const auto n = image.dims;
+    Grid grid{n, labels};
+    const int cx = n[0] - 1, cy = n[1] - 1, cz = n[2] - 1;
+    auto cube_index = [&](int i, int j, int k) {
+        return (static_cast<std::size_t>(k) * cy + j) * cx + i;
+    };
+
+    // One vertex per cube whose eight voxels do not all carry the same label.
+    std::vector<std::int32_t> vertex_of_cube(static_cast<std::size_t>(cx) * cy * cz, -1);
+    std::vector<Eigen::Vector3d> position;  // index space
+    std::vector<std::uint8_t> label_count;  // distinct labels in the vertex's cube
+    std::vector<std::array<int, 3>> cube_of_vertex;
+    for (int k = 0; k < cz; ++k)
+        for (int j = 0; j < cy; ++j)
+            for (int i = 0; i < cx; ++i) {
+                std::array<Label, 8> l;
+                for (int o = 0; o < 8; ++o)
+                    l[o] = labels[grid.index(i + kOctant[o][0], j + kOctant[o][1], k + kOctant[o][2])];
+                if (std::all_of(l.begin(), l.end(), [&](Label x) { return x == l[0]; })) continue;
+                Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+                int crossings = 0;
+                for (int o = 0; o < 8; ++o)
+                    for (int bit = 0; bit < 3; ++bit) {
+                        const int q = o | (1 << bit);
+                        if (q == o || l[o] == l[q]) continue;
+                        // Midpoint of the voxel-centre edge o-q.
+                        sum += Eigen::Vector3d(i + 0.5 * (kOctant[o][0] + kOctant[q][0]),
+                                               j + 0.5 * (kOctant[o][1] + kOctant[q][1]),
+                                               k + 0.5 * (kOctant[o][2] + kOctant[q][2]));
+                        ++crossings;
+                    }
+                std::array<Label, 8> sorted = l;
+                std::sort(sorted.begin(), sorted.end());
+                vertex_of_cube[cube_index(i, j, k)] = static_cast<std::int32_t>(position.size());
+                position.push_back(sum / crossings);
+                label_count.push_back(static_cast<std::uint8_t>(
+                    std::unique(sorted.begin(), sorted.end()) - sorted.begin()));
+                cube_of_vertex.push_back({i, j, k});
+            }
+    ctx.progress(0.4, "surface nets: vertices");
+
+    // One quad per voxel face between two labels, as two triangles.
+    struct Quad {
+        std::array<std::int32_t, 4> v;
+        Label in, out;
+    };
+    std::vector<Quad> quads;
+    for (int axis = 0; axis < 3; ++axis) {
+        const int u = (axis + 1) % 3, w = (axis + 2) % 3;  // u x w = +axis
+        for (int k = 0; k < n[2]; ++k)
+            for (int j = 0; j < n[1]; ++j)
+                for (int i = 0; i < n[0]; ++i) {
+                    std::array<int, 3> a{i, j, k};
+                    std::array<int, 3> b = a;
+                    if (++b[axis] >= n[axis]) continue;
+                    const Label la = labels[grid.index(a[0], a[1], a[2])];
+                    const Label lb = labels[grid.index(b[0], b[1], b[2])];
+                    if (la == lb) continue;
+                    // The four cubes around the voxel-centre edge a-b, counter-clockwise
+                    // about +axis: (u-1, w-1), (u, w-1), (u, w), (u-1, w).
+                    std::array<std::int32_t, 4> v;
+                    const int du[4] = {-1, 0, 0, -1}, dw[4] = {-1, -1, 0, 0};
+                    for (int c = 0; c < 4; ++c) {
+                        std::array<int, 3> cube = a;
+                        cube[u] += du[c];
+                        cube[w] += dw[c];
+                        v[c] = vertex_of_cube[cube_index(cube[0], cube[1], cube[2])];
+                    }
+                    const Label in = std::max(la, lb), out = std::min(la, lb);
+                    if (in != la) std::swap(v[1], v[3]);  // normal must point from `in` to `out`
+                    quads.push_back({v, in, out});
+                }
+    }
+    ctx.progress(0.6, "surface nets: faces");
+
+    // Constrained smoothing: surface vertices follow all neighbours, junction-curve vertices
+    // (three or more labels, two junction neighbours) follow the curve, corners stay; every
+    // vertex stays inside its cube, so the topology and the shared interfaces are unchanged.
+    const std::size_t nv = position.size();
+    std::vector<std::pair<std::int32_t, std::int32_t>> edges;
+    edges.reserve(quads.size() * 4);
+    for (const Quad& q : quads)
+        for (int c = 0; c < 4; ++c) {
+            const auto a = q.v[c], b = q.v[(c + 1) % 4];
+            edges.push_back({std::min(a, b), std::max(a, b)});
+        }
+    std::sort(edges.begin(), edges.end());
+    edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
+    std::vector<std::int32_t> offset(nv + 1, 0), neighbor;
+    for (const auto& [a, b] : edges) {
+        const bool ja = label_count[a] > 2, jb = label_count[b] > 2;
+        if (!ja || jb) ++offset[a + 1];
+        if (!jb || ja) ++offset[b + 1];
+    }
+    for (std::size_t v = 0; v < nv; ++v) offset[v + 1] += offset[v];
+    neighbor.resize(offset[nv]);
+    {
+        std::vector<std::int32_t> fill(offset.begin(), offset.end() - 1);
+        for (const auto& [a, b] : edges) {
+            const bool ja = label_count[a] > 2, jb = label_count[b] > 2;
+            if (!ja || jb) neighbor[fill[a]++] = b;
+            if (!jb || ja) neighbor[fill[b]++] = a;
+        }
+    }
+    const double lambda = params.smoothing_relaxation;
+    std::vector<Eigen::Vector3d> next(nv);
+    for (int pass = 0; pass < params.smoothing_iterations; ++pass) {
+        for (std::size_t v = 0; v < nv; ++v) {
+            const int count = offset[v + 1] - offset[v];
+            const bool movable = label_count[v] <= 2 ? count > 0 : count == 2;
+            if (!movable) {
+                next[v] = position[v];
+                continue;
+            }
+            Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+            for (int e = offset[v]; e < offset[v + 1]; ++e) mean += position[neighbor[e]];
+            Eigen::Vector3d p = (1.0 - lambda) * position[v] + lambda * mean / count;
+            for (int d = 0; d < 3; ++d)
+                p[d] = std::clamp(p[d], double(cube_of_vertex[v][d]), double(cube_of_vertex[v][d] + 1));
+            next[v] = p;
+        }
+        position.swap(next);
+    }
+    ctx.progress(0.8, "surface nets: smoothing");
+
+    IndexToPhysical to_physical{image};
+    core::SurfaceNetwork out;
+    out.xyz.reserve(3 * nv);
+    for (const auto& p : position) out.add_vertex(to_physical(p));
+    const bool flip = to_physical.is_reflection();
+    out.faces.reserve(2 * quads.size());
+    for (const Quad& q : quads) {
+        const auto p = [&](int c) { return out.point(q.v[c]); };
+        std::array<std::array<std::int32_t, 3>, 2> tris;
+        if ((p(0) - p(2)).squaredNorm() <= (p(1) - p(3)).squaredNorm())
+            tris = {{{q.v[0], q.v[1], q.v[2]}, {q.v[0], q.v[2], q.v[3]}}};
+        else
+            tris = {{{q.v[0], q.v[1], q.v[3]}, {q.v[1], q.v[2], q.v[3]}}};
+        for (auto t : tris) {
+            if (flip) std::swap(t[1], t[2]);
+            out.add_face(t[0], t[1], t[2], q.in, q.out);
+        }
+    }
+    return out;
+}
+
+core::SurfaceNetwork flying_edges(const core::LabelImage& image, const std::vector<Label>& labels,
+                                  Label label, const ExtractParams& params, core::StageContext& ctx) {
+    vtkNew<vtkImageData> mask;
+    mask->SetDimensions(image.dims[0], image.dims[1], image.dims[2]);
+    mask->SetOrigin(0.0, 0.0, 0.0);
+    mask->SetSpacing(1.0, 1.0, 1.0);  // index space; the physical map is applied below
+    vtkNew<vtkUnsignedCharArray> scalars;
+    scalars->SetNumberOfValues(static_cast<vtkIdType>(labels.size()));
+    for (std::size_t v = 0; v < labels.size(); ++v)
+        scalars->SetValue(static_cast<vtkIdType>(v), labels[v] == label ? 1 : 0);
+    scalars->SetName("mask");
+    mask->GetPointData()->SetScalars(scalars);
+
+    vtkSmartPointer<vtkPolyData> contour;
+    if (params.blur_sigma_mm > 0.0) {
+        // Blur a float copy of the mask so the 0.5 iso-level sits between inside and out.
+        vtkNew<vtkImageData> as_float;
+        as_float->SetDimensions(image.dims[0], image.dims[1], image.dims[2]);
+        vtkNew<vtkFloatArray> values;
+        values->SetNumberOfValues(scalars->GetNumberOfValues());
+        for (vtkIdType v = 0; v < scalars->GetNumberOfValues(); ++v) values->SetValue(v, scalars->GetValue(v));
+        as_float->GetPointData()->SetScalars(values);
+        vtkNew<vtkImageGaussianSmooth> blur;
+        blur->SetInputData(as_float);
+        blur->SetDimensionality(3);
+        blur->SetStandardDeviations(params.blur_sigma_mm / image.spacing.x(),
+                                    params.blur_sigma_mm / image.spacing.y(),
+                                    params.blur_sigma_mm / image.spacing.z());
+        blur->SetRadiusFactors(3.0, 3.0, 3.0);
+        vtkNew<vtkFlyingEdges3D> contour_filter;
+        contour_filter->SetInputConnection(blur->GetOutputPort());
+        contour_filter->SetValue(0, 0.5);
+        contour_filter->ComputeNormalsOff();
+        contour_filter->ComputeGradientsOff();
+        contour_filter->ComputeScalarsOff();
+        contour_filter->Update();
+        contour = contour_filter->GetOutput();
+    } else {
+        vtkNew<vtkDiscreteFlyingEdges3D> contour_filter;
+        contour_filter->SetInputData(mask);
+        contour_filter->SetValue(0, 1.0);
+        contour_filter->ComputeNormalsOff();
+        contour_filter->ComputeGradientsOff();
+        contour_filter->ComputeScalarsOff();
+        contour_filter->Update();
+        contour = contour_filter->GetOutput();
+    }
+    ctx.progress(0.7, "flying edges: contour");
+
+    IndexToPhysical to_physical{image};
+    core::SurfaceNetwork out;
+    const vtkIdType np = contour->GetNumberOfPoints();
+    out.xyz.reserve(3 * static_cast<std::size_t>(np));
+    for (vtkIdType p = 0; p < np; ++p) {
+        double x[3];
+        contour->GetPoint(p, x);
+        out.add_vertex(to_physical(Eigen::Vector3d(x[0], x[1], x[2])));
+    }
+    vtkCellArray* polys = contour->GetPolys();
+    out.faces.reserve(static_cast<std::size_t>(polys->GetNumberOfCells()));
+    vtkNew<vtkIdList> ids;
+    for (polys->InitTraversal(); polys->GetNextCell(ids);) {
+        FM_CHECK(ids->GetNumberOfIds() == 3);
+        out.add_face(static_cast<std::int32_t>(ids->GetId(0)), static_cast<std::int32_t>(ids->GetId(1)),
+                     static_cast<std::int32_t>(ids->GetId(2)), label, 0);
+    }
+    // The case table orients every triangle alike; make the enclosed volume positive.
+    if (core::enclosed_volume(out, label) < 0.0)
+        for (auto& t : out.faces) std::swap(t[1], t[2]);
+    return out;
+}
+
+std::string label_list(const std::set<Label>& labels) {
+    std::ostringstream s;
+    int shown = 0;
+    for (Label l : labels) {
+        if (shown++ == 12) {
+            s << ", ... (" << labels.size() << " in all)";
+            break;
+        }
+        s << (shown > 1 ? ", " : "") << l;
+    }
+    return s.str();
+}
+
+}  // namespace
+
+void validate(const ExtractParams& params) {
+    if (params.blur_sigma_mm < 0.0)
+        FM_THROW(InputError, "extract.blur_sigma_mm: must be >= 0, got " + std::to_string(params.blur_sigma_mm));
+    if (params.smoothing_iterations < 0 || params.smoothing_iterations > 1000)
+        FM_THROW(InputError, "extract.smoothing_iterations: must be in [0, 1000], got " +
+                                 std::to_string(params.smoothing_iterations));
+    if (!(params.smoothing_relaxation > 0.0 && params.smoothing_relaxation <= 1.0))
+        FM_THROW(InputError, "extract.smoothing_relaxation: must be in (0, 1], got " +
+                                 std::to_string(params.smoothing_relaxation));
+    for (Label l : params.labels)
+        if (l <= 0) FM_THROW(InputError, "input.labels: labels must be > 0 (0 is the outside), got " + std::to_string(l));
+}
+
+core::SurfaceNetwork extract(const core::LabelImage& image, const ExtractParams& params,
+                             core::StageContext& ctx) {
+    validate(params);
+    FM_CHECK(image.labels.size() == image.voxel_count());
+    const std::set<Label> present = [&] {
+        std::set<Label> s;
+        Label last = 0;
+        for (Label l : image.labels)
+            if (l != 0 && l != last) s.insert(last = l);
+        return s;
+    }();
+    if (present.empty())
+        FM_THROW(InputError, "input.image: '" + image.source +
+                                 "' has no labelled (non-zero) voxel; for a grayscale image set input.threshold");
+    std::set<Label> chosen(params.labels.begin(), params.labels.end());
+    if (chosen.empty()) chosen = present;
+    for (Label l : chosen)
+        if (!present.count(l))
+            FM_THROW(InputError, "input.labels: label " + std::to_string(l) + " is not in '" + image.source +
+                                     "' (labels present: " + label_list(present) + ")");
+    ctx.count("extract.labels", static_cast<double>(chosen.size()));
+
+    std::vector<Label> labels(image.labels);
+    if (chosen.size() != present.size())
+        for (Label& l : labels)
+            if (l != 0 && !chosen.count(l)) l = 0;
+
+    ExtractMethod method = params.method;
+    if (method == ExtractMethod::Auto)
+        method = chosen.size() == 1 ? ExtractMethod::FlyingEdges : ExtractMethod::SurfaceNets;
+    if (method == ExtractMethod::FlyingEdges && chosen.size() != 1)
+        FM_THROW(InputError, "extract.method: flying_edges contours one label, " + std::to_string(chosen.size()) +
+                                 " are chosen; use surface_nets (or auto) for several labels");
+
+    if (params.manifold_cleanup) {
+        bool converged = false;
+        std::size_t changed = make_boundaries_manifold(Grid{image.dims, labels}, 6, converged);
+        if (!converged) {
+            const std::size_t shrunk = shrink_pinches(Grid{image.dims, labels});
+            ctx.count("extract.voxels_given_up_for_manifold", static_cast<double>(shrunk));
+            changed += shrunk;
+        }
+        ctx.count("extract.voxels_changed_for_manifold", static_cast<double>(changed));
+        if (changed > 0)
+            ctx.info("extract: " + std::to_string(changed) + " voxels relabelled so every region boundary is manifold");
+    }
+    ctx.progress(0.2, "labels ready");
+
+    core::SurfaceNetwork out;
+    if (method == ExtractMethod::FlyingEdges) {
+        ctx.info("extract: VTK discrete flying edges on label " + std::to_string(*chosen.begin()) +
+                 (params.blur_sigma_mm > 0 ? " (blur sigma " + std::to_string(params.blur_sigma_mm) + " mm)" : ""));
+        out = flying_edges(image, labels, *chosen.begin(), params, ctx);
+    } else {
+        ctx.info("extract: multi-label surface nets on " + std::to_string(chosen.size()) + " labels");
+        out = surface_nets(image, labels, params, ctx);
+    }
+    ctx.count("extract.vertices", static_cast<double>(out.vertex_count()));
+    ctx.count("extract.faces", static_cast<double>(out.face_count()));
+    ctx.progress(1.0, "done");
+    return out;
+}
+
+}  // namespace frontmesh::surface

@@ -1,0 +1,45 @@
+#pragma once
+// Extract stage: LabelImage -> SurfaceNetwork (the background surface of the remesher).
+
+#include <vector>
+
+#include "pipeline/core/label_image.h"
+#include "pipeline/core/stage_context.h"
+#include "pipeline/core/surface_network.h"
+
+namespace frontmesh::surface {
+
+enum class ExtractMethod {
+    Auto,         ///< flying_edges for one label, surface_nets for several
+    FlyingEdges,  ///< VTK discrete flying edges (marching cubes); one label only
+    SurfaceNets,  ///< multi-label surface nets: every cube decided once for all labels
+};
+
+/// Parameters of the extract stage; defaults equal configs/reference.yaml (`extract.*`).
+struct ExtractParams {
+    std::vector<core::Label> labels;  ///< labels to mesh (`input.labels`); empty = all
+    ExtractMethod method = ExtractMethod::Auto;
+    /// flying_edges only: Gaussian blur (mm) of the label mask before contouring at 0.5;
+    /// 0 contours the mask as it is.
+    double blur_sigma_mm = 0.0;
+    /// surface_nets only: constrained smoothing passes (vertices stay in their cube;
+    /// junction curves smooth along themselves, corners stay).
+    int smoothing_iterations = 8;
+    double smoothing_relaxation = 0.5;  ///< surface_nets: step of each pass, (0, 1]
+    /// Edit single voxels so that every region's boundary is a 2-manifold (two regions of
+    /// the same label touching only along a voxel edge or corner are joined). Counted.
+    bool manifold_cleanup = true;
+};
+
+/// Throws InputError naming the key when a value is out of range.
+void validate(const ExtractParams& params);
+
+/// Contours the chosen labels. With several labels the result is one network: each
+/// interface is one set of triangles carrying both labels (region_in = larger label,
+/// region_out = smaller, 0 = outside), regions closed and oriented outward.
+/// Throws InputError ("input.labels: ...") when a chosen label is absent from the image,
+/// or the image has no labelled voxel.
+core::SurfaceNetwork extract(const core::LabelImage& image, const ExtractParams& params,
+                             core::StageContext& ctx);
+
+}  // namespace frontmesh::surface

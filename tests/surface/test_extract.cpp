@@ -1,0 +1,188 @@
+#include <algorithm>
+#include <map>
+#include <set>
+
+#include <catch2/catch.hpp>
+
+#include "io/image_reader.h"
+#include "pipeline/core/error.h"
+#include "surface/extract.h"
+#include "tests/fixtures/phantoms.h"
+
+using namespace frontmesh;
+
+namespace {
+
+double labelled_volume(const core::LabelImage& image, core::Label label) {
+    return double(std::count(image.labels.begin(), image.labels.end(), label)) * image.voxel_volume();
+}
+
+// V - E + F of one region's boundary.
+long euler_characteristic(const core::SurfaceNetwork& s, core::Label region) {
+    std::set<std::int32_t> vertices;
+    std::set<std::pair<std::int32_t, std::int32_t>> edges;
+    long faces = 0;
+    for (std::size_t f = 0; f < s.face_count(); ++f) {
+        if (s.region_in[f] != region && s.region_out[f] != region) continue;
+        ++faces;
+        const auto& t = s.faces[f];
+        for (int i = 0; i < 3; ++i) {
+            vertices.insert(t[i]);
+            edges.insert({std::min(t[i], t[(i + 1) % 3]), std::max(t[i], t[(i + 1) % 3])});
+        }
+    }
+    return long(vertices.size()) - long(edges.size()) + faces;
+}
+
+void require_closed_oriented_manifold(const core::SurfaceNetwork& s) {
+    const auto checks = core::check_region_boundaries(s);
+    REQUIRE_FALSE(checks.empty());
+    for (const auto& c : checks) {
+        INFO("region " << c.region);
+        CHECK(c.is_closed());
+        CHECK(c.is_oriented());
+        CHECK(c.nonmanifold_edges == 0);
+    }
+}
+
+surface::ExtractParams with_method(surface::ExtractMethod m) {
+    surface::ExtractParams p;
+    p.method = m;
+    return p;
+}
+
+}  // namespace
+
+TEST_CASE("flying edges on a ball: closed, outward, volume of the voxels", "[surface]") {
+    const auto image = fixtures::sphere_image(64, 24.0, 1.0, 3);
+    core::StageContext ctx;
+    const auto s = surface::extract(image, with_method(surface::ExtractMethod::FlyingEdges), ctx);
+    require_closed_oriented_manifold(s);
+    CHECK(euler_characteristic(s, 3) == 2);
+    CHECK(core::enclosed_volume(s, 3) == Approx(labelled_volume(image, 3)).epsilon(0.01));
+    CHECK(s.region_in.front() == 3);
+    CHECK(s.region_out.front() == 0);
+}
+
+TEST_CASE("surface nets on a ball: closed, outward, volume of the voxels", "[surface]") {
+    const auto image = fixtures::sphere_image(64, 24.0, 1.0, 1);
+    core::StageContext ctx;
+    const auto s = surface::extract(image, with_method(surface::ExtractMethod::SurfaceNets), ctx);
+    require_closed_oriented_manifold(s);
+    CHECK(euler_characteristic(s, 1) == 2);
+    CHECK(core::enclosed_volume(s, 1) == Approx(labelled_volume(image, 1)).epsilon(0.01));
+}
+
+TEST_CASE("a torus has genus one", "[surface]") {
+    const auto image = fixtures::torus_image(30.0, 14.0, 1.0);
+    core::StageContext ctx;
+    for (auto method : {surface::ExtractMethod::FlyingEdges, surface::ExtractMethod::SurfaceNets}) {
+        const auto s = surface::extract(image, with_method(method), ctx);
+        require_closed_oriented_manifold(s);
+        CHECK(euler_characteristic(s, 1) == 0);
+        CHECK(core::enclosed_volume(s, 1) == Approx(labelled_volume(image, 1)).epsilon(0.01));
+    }
+}
+
+TEST_CASE("nested ellipsoids: one network, interfaces shared once, regions closed", "[surface]") {
+    const auto image = fixtures::nested_ellipsoids_image(1.0, 1.5);
+    core::StageContext ctx;
+    const auto s = surface::extract(image, surface::ExtractParams{}, ctx);
+    require_closed_oriented_manifold(s);
+    const auto checks = core::check_region_boundaries(s);
+    REQUIRE(checks.size() == 3);
+    // Each interface is stored once with both labels; no face separates a label from itself.
+    std::map<std::pair<int, int>, int> pairs;
+    for (std::size_t f = 0; f < s.face_count(); ++f) {
+        REQUIRE(s.region_in[f] > s.region_out[f]);
+        ++pairs[{s.region_in[f], s.region_out[f]}];
+    }
+    CHECK(pairs.count({2, 1}) == 1);
+    CHECK(pairs.count({3, 2}) == 1);
+    CHECK(pairs.count({3, 0}) == 1);
+    CHECK(pairs.count({2, 0}) == 0);  // the shells are nested: 1 and 2 never meet the outside
+    std::set<std::array<std::int32_t, 3>> seen;
+    for (auto t : s.faces) {
+        std::sort(t.begin(), t.end());
+        CHECK(seen.insert(t).second);  // no face twice
+    }
+    for (core::Label l : {1, 2, 3}) {
+        INFO("region " << l);
+        CHECK(core::enclosed_volume(s, l) == Approx(labelled_volume(image, l)).epsilon(0.02));
+        CHECK(euler_characteristic(s, l) == (l == 1 ? 2 : 4));  // shells have two spheres
+    }
+}
+
+TEST_CASE("a reflecting direction matrix keeps faces outward", "[surface]") {
+    auto image = fixtures::sphere_image(40, 12.0, 1.0);
+    image.direction.col(0) *= -1.0;
+    core::StageContext ctx;
+    for (auto method : {surface::ExtractMethod::FlyingEdges, surface::ExtractMethod::SurfaceNets}) {
+        const auto s = surface::extract(image, with_method(method), ctx);
+        require_closed_oriented_manifold(s);
+    }
+}
+
+TEST_CASE("voxels touching along an edge or a corner are joined into a manifold", "[surface]") {
+    core::LabelImage image;
+    image.dims = {8, 8, 8};
+    image.labels.assign(512, 0);
+    image.labels[image.index(3, 3, 3)] = 1;
+    image.labels[image.index(4, 4, 3)] = 1;  // edge contact
+    image.labels[image.index(2, 2, 2)] = 1;  // corner contact with (3,3,3)
+    image.labels[image.index(5, 4, 4)] = 2;  // corner contact between labels 1 and 2: fine
+    core::StageContext ctx;
+    for (auto method : {surface::ExtractMethod::SurfaceNets}) {
+        const auto s = surface::extract(image, with_method(method), ctx);
+        require_closed_oriented_manifold(s);
+        CHECK(ctx.counters().at("extract.voxels_changed_for_manifold") >= 2);
+    }
+}
+
+TEST_CASE("label selection and its errors", "[surface]") {
+    auto image = fixtures::nested_ellipsoids_image(1.0, 0.6);
+    core::StageContext ctx;
+    surface::ExtractParams p;
+    p.labels = {1, 3};
+    const auto s = surface::extract(image, p, ctx);
+    const auto labels = core::region_labels(s);
+    CHECK(labels == std::vector<core::Label>{1, 3});
+    require_closed_oriented_manifold(s);
+
+    p.labels = {7};
+    try {
+        surface::extract(image, p, ctx);
+        FAIL("an absent label must be an error");
+    } catch (const core::InputError& e) {
+        CHECK_THAT(e.what(), Catch::Contains("input.labels") && Catch::Contains("label 7"));
+    }
+    p.labels = {1, 2};
+    p.method = surface::ExtractMethod::FlyingEdges;
+    CHECK_THROWS_AS(surface::extract(image, p, ctx), core::InputError);
+
+    std::fill(image.labels.begin(), image.labels.end(), 0);
+    CHECK_THROWS_AS(surface::extract(image, surface::ExtractParams{}, ctx), core::InputError);
+}
+
+TEST_CASE("AAL atlas: 116 regions closed and oriented, interfaces shared", "[surface][e2e]") {
+    const std::string path = "/usr/share/mricron/templates/aal.nii.gz";
+    const auto image = io::read_label_image(path, io::ImageReadOptions{});
+    core::StageContext ctx;
+    const auto s = surface::extract(image, surface::ExtractParams{}, ctx);
+    const auto checks = core::check_region_boundaries(s);
+    CHECK(checks.size() == 116);
+    std::string bad;
+    for (const auto& c : checks)
+        if (!(c.is_closed() && c.is_oriented() && c.nonmanifold_edges == 0))
+            bad += "region " + std::to_string(c.region) + ": open " + std::to_string(c.open_edges) + ", misoriented " +
+                   std::to_string(c.misoriented_edges) + ", non-manifold " + std::to_string(c.nonmanifold_edges) +
+                   ", volume " + std::to_string(c.volume) + "; ";
+    CHECK(bad == std::string());
+    CHECK(ctx.warnings() == std::vector<std::string>());
+    std::size_t interface_faces = 0;
+    for (std::size_t f = 0; f < s.face_count(); ++f) {
+        REQUIRE(s.region_in[f] != s.region_out[f]);
+        interface_faces += s.region_out[f] != 0;
+    }
+    CHECK(interface_faces > 100000);
+}
