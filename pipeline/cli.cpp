@@ -41,7 +41,7 @@ Options:
   --until STAGE         stop after STAGE
   --force               run every stage even if its checkpoint is up to date
   --threads N           worker threads (default: all cores); results do not depend on it
-  --quiet               no progress lines
+  --quiet               only warnings and errors on the terminal (the log has all)
 
 Stages, in order: extract, repair (remesh, tetra and refine are to come).
 A stage whose input and parameters are unchanged since the last run is skipped.

@@ -121,9 +121,11 @@ public:
     }
     void line(core::LogLevel level, const std::string& message) {
         if (level == core::LogLevel::Debug) return write_file("DEBUG " + message);
-        const std::string prefix = level == core::LogLevel::Warning ? "warning: " : "";
-        clear_progress();
-        std::cerr << prefix << message << '\n';
+        const bool warning = level == core::LogLevel::Warning;
+        if (warning || !quiet_) {
+            clear_progress();
+            std::cerr << (warning ? "warning: " : "") << message << '\n';
+        }
         write_file((level == core::LogLevel::Warning ? "WARN  " : "INFO  ") + message);
     }
     void progress(const std::string& stage, double fraction, const std::string& what) {

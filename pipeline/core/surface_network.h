@@ -33,7 +33,9 @@ struct SurfaceNetwork {
         return Eigen::Map<Eigen::Vector3d>(&xyz[3 * static_cast<std::size_t>(v)]);
     }
     std::int32_t add_vertex(const Eigen::Vector3d& p) {
-        xyz.insert(xyz.end(), {p.x(), p.y(), p.z()});
+        xyz.push_back(p.x());
+        xyz.push_back(p.y());
+        xyz.push_back(p.z());
         return static_cast<std::int32_t>(vertex_count() - 1);
     }
     void add_face(std::int32_t a, std::int32_t b, std::int32_t c, Label in, Label out) {

@@ -1,0 +1,158 @@
+#include <filesystem>
+#include <regex>
+
+#include <catch2/catch.hpp>
+
+#include "tests/fixtures/phantoms.h"
+#include "tests/pipeline/cli_helpers.h"
+
+using namespace frontmesh;
+using frontmesh::testing::run_frontmesh;
+using frontmesh::testing::slurp;
+using frontmesh::testing::write_file;
+namespace fs = std::filesystem;
+
+namespace {
+
+std::size_t temp_files_below(const fs::path& dir) {
+    std::size_t n = 0;
+    if (fs::exists(dir))
+        for (const auto& e : fs::recursive_directory_iterator(dir))
+            n += e.path().filename().string().find(".tmp-") != std::string::npos;
+    return n;
+}
+
+// A folder with the nested-ellipsoid phantom as a MetaImage and a recipe for it.
+std::string phantom_run_dir(const std::string& name) {
+    const std::string dir = fixtures::temp_dir(name);
+    fixtures::write_metaimage(fixtures::nested_ellipsoids_image(1.0, 0.7), dir + "/phantom.mha");
+    write_file(dir + "/recipe.yaml", "input:\n  image: phantom.mha\noutput:\n  dir: out\n");
+    return dir;
+}
+
+}  // namespace
+
+TEST_CASE("run writes checkpoints, run.pvd, summary, log and result", "[pipeline]") {
+    const std::string dir = phantom_run_dir("run_outputs");
+    const auto r = run_frontmesh("run recipe.yaml --quiet", dir);
+    INFO(r.err);
+    REQUIRE(r.exit_code == 0);
+    const fs::path out = fs::path(dir) / "out";
+    for (const char* f : {"checkpoints/01-extract.vtu", "checkpoints/02-repair.vtu", "checkpoints/01-extract.hash",
+                          "run.pvd", "summary.json", "frontmesh.log", "surface.vtu"})
+        CHECK(fs::exists(out / f));
+    CHECK(temp_files_below(out) == 0);
+    const std::string summary = slurp(out / "summary.json");
+    CHECK_THAT(summary, Catch::Contains("\"status\": \"ok\"") && Catch::Contains("\"name\": \"repair\"") &&
+                            Catch::Contains("\"regions_closed\": 3") && Catch::Contains("\"peak_rss_mb\"") &&
+                            Catch::Contains("\"frame\": \"lps\""));
+    const std::string pvd = slurp(out / "run.pvd");
+    CHECK_THAT(pvd, Catch::Contains("checkpoints/01-extract.vtu") && Catch::Contains("checkpoints/02-repair.vtu"));
+    CHECK_THAT(r.out, Catch::Contains("run.pvd"));
+
+    SECTION("an unchanged re-run skips every stage") {
+        const auto before = fs::last_write_time(out / "checkpoints/02-repair.vtu");
+        const auto again = run_frontmesh("run recipe.yaml", dir);
+        REQUIRE(again.exit_code == 0);
+        CHECK_THAT(again.err, Catch::Contains("up to date"));
+        CHECK(fs::last_write_time(out / "checkpoints/02-repair.vtu") == before);
+        CHECK_THAT(slurp(out / "summary.json"), Catch::Contains("\"status\": \"skipped\""));
+    }
+    SECTION("a changed repair key re-runs repair only") {
+        const auto extract_time = fs::last_write_time(out / "checkpoints/01-extract.vtu");
+        const auto again = run_frontmesh("run recipe.yaml --set repair.max_hole_edges=50", dir);
+        REQUIRE(again.exit_code == 0);
+        CHECK(fs::last_write_time(out / "checkpoints/01-extract.vtu") == extract_time);
+        CHECK_THAT(again.err, Catch::Contains("[2/2] repair") && !Catch::Contains("[1/2] extract"));
+    }
+    SECTION("--from and --until") {
+        const auto from = run_frontmesh("run recipe.yaml --from repair", dir);
+        CHECK(from.exit_code == 0);
+        CHECK_THAT(from.err, Catch::Contains("reading checkpoint") && Catch::Contains("[2/2] repair"));
+        const auto until = run_frontmesh("run recipe.yaml --force --until extract", dir);
+        CHECK(until.exit_code == 0);
+        CHECK_THAT(until.err, Catch::Contains("[1/1] extract") && !Catch::Contains("repair"));
+        CHECK(run_frontmesh("run recipe.yaml --from tetra", dir).exit_code == 2);
+    }
+}
+
+TEST_CASE("bad input: one clear line, exit code 2, nothing written", "[pipeline]") {
+    const std::string dir = phantom_run_dir("run_bad");
+    auto expect_clean_failure = [&](const std::string& args, const std::string& needle) {
+        const auto r = run_frontmesh(args + " --quiet", dir);
+        INFO(args << "\n" << r.err);
+        CHECK(r.exit_code == 2);
+        CHECK_THAT(r.err, Catch::Contains(needle));
+        CHECK(std::count(r.err.begin(), r.err.end(), '\n') == 1);  // one line
+        CHECK_FALSE(fs::exists(fs::path(dir) / "out"));
+    };
+    write_file(dir + "/typo.yaml", "input:\n  image: phantom.mha\n  lables: [1]\noutput:\n  dir: out\n");
+    expect_clean_failure("run typo.yaml", "did you mean 'input.labels'");
+    write_file(dir + "/missing.yaml", "input:\n  image: nothere.nii.gz\noutput:\n  dir: out\n");
+    expect_clean_failure("run missing.yaml", "nothere.nii.gz");
+    expect_clean_failure("run recipe.yaml --set input.labels=[9]", "label 9 is not in");
+    expect_clean_failure("run recipe.yaml --set input.labels=[]", "input.labels");
+    fixtures::write_metaimage(fixtures::sphere_image(8, 0.1), dir + "/empty.mha");  // no voxel inside
+    expect_clean_failure("run recipe.yaml --set input.image=empty.mha", "no labelled");
+    expect_clean_failure("run recipe.yaml --bogus", "--bogus");
+    expect_clean_failure("frobnicate recipe.yaml", "unknown command");
+    CHECK(run_frontmesh("validate recipe.yaml", dir).exit_code == 0);
+    CHECK(run_frontmesh("validate typo.yaml", dir).exit_code == 2);
+}
+
+TEST_CASE("--help, --version and keys", "[pipeline]") {
+    const std::string dir = fixtures::temp_dir("run_help");
+    const auto help = run_frontmesh("--help", dir);
+    CHECK(help.exit_code == 0);
+    CHECK_THAT(help.out, Catch::Contains("frontmesh run RECIPE.yaml") && Catch::Contains("Exit codes"));
+    const auto version = run_frontmesh("--version", dir);
+    CHECK(version.exit_code == 0);
+    CHECK(std::regex_search(version.out, std::regex("^frontmesh [0-9]+\\.[0-9]+\\.[0-9]+")));
+    const auto keys = run_frontmesh("keys", dir);
+    CHECK_THAT(keys.out, Catch::Contains("repair.max_hole_edges: 200"));
+    CHECK(run_frontmesh("", dir).exit_code == 2);
+}
+
+TEST_CASE("Colin27 brain: closed surface passes meshcheck, checkpoints read by VTK", "[pipeline][e2e]") {
+    const std::string dir = fixtures::temp_dir("run_colin27");
+    const std::string recipe = std::string(FRONTMESH_SOURCE_DIR) + "/examples/colin27-brain.yaml";
+    const auto r = run_frontmesh("run '" + recipe + "' --quiet --set output.dir=" + dir + "/out", dir);
+    INFO(r.err);
+    REQUIRE(r.exit_code == 0);
+    const std::string check = "/usr/bin/python3 '" + std::string(FRONTMESH_SOURCE_DIR) +
+                              "/../shared/tools/meshcheck.py' '" + dir + "/out/surface.vtu' --json '" + dir +
+                              "/meshcheck.json' > '" + dir + "/meshcheck.txt' 2>&1";
+    if (fs::exists(std::string(FRONTMESH_SOURCE_DIR) + "/../shared/tools/meshcheck.py")) {
+        const int status = std::system(check.c_str());
+        INFO(slurp(dir + "/meshcheck.txt"));
+        CHECK(WEXITSTATUS(status) == 0);
+    } else {
+        WARN("meshcheck.py not found beside the repository; referee skipped");
+    }
+    // Every checkpoint opens with plain VTK (what ParaView uses) and carries the arrays.
+    const std::string py =
+        "import sys, vtk\n"
+        "for f in sys.argv[1:]:\n"
+        "    r = vtk.vtkXMLUnstructuredGridReader(); r.SetFileName(f); r.Update(); g = r.GetOutput()\n"
+        "    assert g.GetNumberOfCells() > 1000, f\n"
+        "    for a in ('region_in', 'region_out', 'eta', 'min_angle'):\n"
+        "        assert g.GetCellData().GetArray(a) is not None, (f, a)\n"
+        "    assert g.GetFieldData().GetAbstractArray('frame').GetValue(0) == 'lps'\n";
+    write_file(dir + "/check.py", py);
+    const std::string cmd = "/usr/bin/python3 '" + dir + "/check.py' '" + dir + "/out/checkpoints/01-extract.vtu' '" +
+                            dir + "/out/checkpoints/02-repair.vtu' > '" + dir + "/py.txt' 2>&1";
+    const int status = std::system(cmd.c_str());
+    INFO(slurp(dir + "/py.txt"));
+    CHECK(WEXITSTATUS(status) == 0);
+}
+
+TEST_CASE("AAL atlas: 116 closed, oriented regions through the command line", "[pipeline][e2e]") {
+    const std::string dir = fixtures::temp_dir("run_aal");
+    const std::string recipe = std::string(FRONTMESH_SOURCE_DIR) + "/examples/aal-atlas.yaml";
+    const auto r = run_frontmesh("run '" + recipe + "' --quiet --set output.dir=" + dir + "/out", dir);
+    INFO(r.err);
+    REQUIRE(r.exit_code == 0);
+    const std::string summary = slurp(dir + "/out/summary.json");
+    CHECK_THAT(summary, Catch::Contains("\"regions\": 116, \"regions_closed\": 116, \"regions_oriented\": 116") &&
+                            Catch::Contains("\"frame\": \"ras\""));
+}
