@@ -3,6 +3,8 @@
 
 #include <map>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "pipeline/core/surface_network.h"
 
@@ -24,5 +26,12 @@ void write_surface_vtu(const core::SurfaceNetwork& surface, const std::string& p
 /// points are kept as they are (repair merges them). Throws InputError naming the file
 /// when it is missing, of an unknown format, empty, or has non-triangle cells.
 core::SurfaceNetwork read_surface(const std::string& path, FieldStrings* fields = nullptr);
+
+/// Writes a ParaView collection (.pvd) listing `entries` as (file, name) pairs, in order:
+/// `file` is relative to the folder of `path`, `name` labels the dataset. Entry i gets
+/// timestep i, so opening the .pvd steps through the run. Written atomically; throws
+/// IoError naming `path` on failure.
+void write_pvd(const std::string& path,
+               const std::vector<std::pair<std::string, std::string>>& entries);
 
 }  // namespace frontmesh::io

@@ -1,0 +1,620 @@
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <catch2/catch.hpp>
+
+#include <vtkCellArray.h>
+#include <vtkCellData.h>
+#include <vtkDoubleArray.h>
+#include <vtkFieldData.h>
+#include <vtkFloatArray.h>
+#include <vtkIntArray.h>
+#include <vtkNew.h>
+#include <vtkPLYWriter.h>
+#include <vtkPoints.h>
+#include <vtkPolyData.h>
+#include <vtkSTLWriter.h>
+#include <vtkShortArray.h>
+#include <vtkSmartPointer.h>
+#include <vtkStringArray.h>
+#include <vtkUnsignedCharArray.h>
+#include <vtkUnstructuredGrid.h>
+#include <vtkXMLDataElement.h>
+#include <vtkXMLDataParser.h>
+#include <vtkXMLPolyDataWriter.h>
+#include <vtkXMLUnstructuredGridReader.h>
+#include <vtkXMLUnstructuredGridWriter.h>
+
+#include "io/atomic_file.h"
+#include "io/mesh_io.h"
+#include "pipeline/core/error.h"
+#include "pipeline/core/quality.h"
+#include "pipeline/core/surface_network.h"
+#include "tests/fixtures/phantoms.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+using frontmesh::core::InputError;
+using frontmesh::core::IoError;
+using frontmesh::core::SurfaceNetwork;
+namespace io = frontmesh::io;
+namespace core = frontmesh::core;
+namespace fixtures = frontmesh::fixtures;
+
+std::string read_text(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    std::ostringstream s;
+    s << in.rdbuf();
+    return s.str();
+}
+
+void write_text(const std::string& path, const std::string& text) {
+    std::ofstream out(path, std::ios::binary);
+    out << text;
+}
+
+/// Names of the entries of `dir`, sorted, including hidden ones.
+std::vector<std::string> folder_entries(const std::string& dir) {
+    std::vector<std::string> names;
+    for (const auto& e : fs::directory_iterator(dir)) names.push_back(e.path().filename().string());
+    std::sort(names.begin(), names.end());
+    return names;
+}
+
+/// Two closed regions: region 1 (inner sphere) inside region 2 (a shell).
+SurfaceNetwork two_region_network() {
+    SurfaceNetwork net = fixtures::uv_sphere(2.0, 10);
+    std::fill(net.region_in.begin(), net.region_in.end(), 2);
+    const SurfaceNetwork inner = fixtures::uv_sphere(1.0, 7);
+    const auto offset = static_cast<std::int32_t>(net.vertex_count());
+    net.xyz.insert(net.xyz.end(), inner.xyz.begin(), inner.xyz.end());
+    for (const auto& f : inner.faces)
+        net.add_face(f[0] + offset, f[1] + offset, f[2] + offset, 1, 2);
+    return net;
+}
+
+/// True when the coordinates are bit for bit the same (so -0.0 differs from 0.0).
+bool same_bits(const std::vector<double>& a, const std::vector<double>& b) {
+    return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(double)) == 0;
+}
+
+void require_same_surface(const SurfaceNetwork& read, const SurfaceNetwork& written) {
+    CHECK(same_bits(read.xyz, written.xyz));
+    CHECK(read.faces == written.faces);
+    CHECK(read.region_in == written.region_in);
+    CHECK(read.region_out == written.region_out);
+}
+
+/// `surface` as vtkPolyData with double points and no cell data.
+vtkSmartPointer<vtkPolyData> to_polydata(const SurfaceNetwork& surface) {
+    vtkNew<vtkDoubleArray> coords;
+    coords->SetNumberOfComponents(3);
+    for (std::size_t v = 0; v < surface.vertex_count(); ++v)
+        coords->InsertNextTuple(&surface.xyz[3 * v]);
+    vtkNew<vtkPoints> points;
+    points->SetData(coords);
+    vtkNew<vtkCellArray> polys;
+    for (const auto& f : surface.faces) {
+        const vtkIdType ids[3] = {f[0], f[1], f[2]};
+        polys->InsertNextCell(3, ids);
+    }
+    auto poly = vtkSmartPointer<vtkPolyData>::New();
+    poly->SetPoints(points);
+    poly->SetPolys(polys);
+    return poly;
+}
+
+/// Face f of `a` and `b` have the same corners up to `tol` (for formats storing floats).
+bool same_corners(const SurfaceNetwork& a, const SurfaceNetwork& b, double tol) {
+    if (a.face_count() != b.face_count()) return false;
+    for (std::size_t f = 0; f < a.face_count(); ++f)
+        for (int k = 0; k < 3; ++k)
+            if ((a.point(a.faces[f][k]) - b.point(b.faces[f][k])).norm() > tol) return false;
+    return true;
+}
+
+bool all_regions_closed_and_oriented(const SurfaceNetwork& s) {
+    const auto checks = core::check_region_boundaries(s);
+    return !checks.empty() && std::all_of(checks.begin(), checks.end(), [](const auto& c) {
+        return c.is_closed() && c.is_oriented() && c.nonmanifold_edges == 0;
+    });
+}
+
+/// Writes `surface` as an OFF file with a comment, full double precision.
+void write_off(const SurfaceNetwork& surface, const std::string& path) {
+    std::ofstream out(path);
+    out << "OFF\n# written by test_mesh_io\n"
+        << surface.vertex_count() << ' ' << surface.face_count() << " 0\n";
+    char buf[128];
+    for (std::size_t v = 0; v < surface.vertex_count(); ++v) {
+        std::snprintf(buf, sizeof buf, "%.17g %.17g %.17g\n", surface.xyz[3 * v],
+                      surface.xyz[3 * v + 1], surface.xyz[3 * v + 2]);
+        out << buf;
+    }
+    for (const auto& f : surface.faces) out << "3 " << f[0] << ' ' << f[1] << ' ' << f[2] << '\n';
+}
+
+template <class Fn>
+std::string input_error_message(Fn&& fn) {
+    try {
+        fn();
+    } catch (const InputError& e) {
+        return e.what();
+    }
+    return "<no InputError>";
+}
+
+}  // namespace
+
+// --- atomic writes -----------------------------------------------------------------------
+
+TEST_CASE("write_text_atomically creates folders, replaces content, leaves no temp", "[io]") {
+    const std::string dir = fixtures::temp_dir("io_atomic_replace");
+    const std::string path = dir + "/sub/deeper/summary.json";
+
+    io::write_text_atomically(path, "first");
+    CHECK(read_text(path) == "first");
+    io::write_text_atomically(path, "second, longer content");
+    CHECK(read_text(path) == "second, longer content");
+    io::write_text_atomically(path, "");
+    CHECK(read_text(path).empty());
+    CHECK(folder_entries(dir + "/sub/deeper") == std::vector<std::string>{"summary.json"});
+}
+
+TEST_CASE("write_atomically uses a hidden temp beside the target", "[io]") {
+    const std::string dir = fixtures::temp_dir("io_atomic_temp_name");
+    const std::string path = dir + "/out.vtu";
+    std::string seen;
+    io::write_atomically(path, [&](const std::string& temp) {
+        seen = temp;
+        write_text(temp, "payload");
+    });
+    const fs::path temp(seen);
+    CHECK(temp.parent_path() == fs::path(dir));
+    CHECK(temp.filename().string().rfind(".out.vtu.tmp-", 0) == 0);
+    CHECK(!fs::exists(temp));
+    CHECK(read_text(path) == "payload");
+
+    // Two writes in a row get distinct temporary names.
+    std::string second;
+    io::write_atomically(path, [&](const std::string& t) {
+        second = t;
+        write_text(t, "again");
+    });
+    CHECK(second != seen);
+}
+
+TEST_CASE("write_atomically keeps the old file when the writer throws", "[io]") {
+    const std::string dir = fixtures::temp_dir("io_atomic_throw");
+    const std::string path = dir + "/run.pvd";
+    io::write_text_atomically(path, "old content");
+
+    CHECK_THROWS_AS(io::write_atomically(path,
+                                         [](const std::string& temp) {
+                                             write_text(temp, "half-written");
+                                             throw std::runtime_error("disk on fire");
+                                         }),
+                    std::runtime_error);
+    CHECK(read_text(path) == "old content");
+    CHECK(folder_entries(dir) == std::vector<std::string>{"run.pvd"});
+}
+
+TEST_CASE("write_atomically reports a failed replace as IoError naming the path", "[io]") {
+    const std::string dir = fixtures::temp_dir("io_atomic_fail");
+
+    // The target is a non-empty folder: the rename cannot replace it.
+    const std::string blocked = dir + "/blocked";
+    fs::create_directories(blocked + "/inside");
+    try {
+        io::write_text_atomically(blocked, "text");
+        FAIL("expected IoError");
+    } catch (const IoError& e) {
+        CHECK_THAT(e.what(), Catch::Contains(blocked));
+    }
+    CHECK(folder_entries(dir) == std::vector<std::string>{"blocked"});
+
+    // The parent is a regular file: the folder cannot be created.
+    write_text(dir + "/plain", "x");
+    try {
+        io::write_surface_vtu(fixtures::octahedron(), dir + "/plain/a.vtu", {});
+        FAIL("expected IoError");
+    } catch (const IoError& e) {
+        CHECK_THAT(e.what(), Catch::Contains(dir + "/plain/a.vtu"));
+    }
+
+    // A writer that produces nothing.
+    CHECK_THROWS_AS(io::write_atomically(dir + "/nothing.txt", [](const std::string&) {}), IoError);
+    CHECK(!fs::exists(dir + "/nothing.txt"));
+}
+
+// --- VTU checkpoints ---------------------------------------------------------------------
+
+TEST_CASE("write_surface_vtu round trip on the uv sphere is exact", "[io]") {
+    const std::string dir = fixtures::temp_dir("io_vtu_sphere");
+    const std::string path = dir + "/checkpoints/02-repair.vtu";
+    const SurfaceNetwork sphere = fixtures::uv_sphere(3.7, 16);
+    const io::FieldStrings fields = {{"frame", "lps"}, {"stage", "repair"}, {"note", "a b & <c>"}};
+
+    io::write_surface_vtu(sphere, path, fields);
+    CHECK(folder_entries(dir + "/checkpoints") == std::vector<std::string>{"02-repair.vtu"});
+
+    io::FieldStrings read_fields{{"stale", "entry"}};
+    const SurfaceNetwork read = io::read_surface(path, &read_fields);
+    require_same_surface(read, sphere);
+    CHECK(read_fields == fields);
+    CHECK(all_regions_closed_and_oriented(read));
+
+    // Without a field map the call works too.
+    CHECK(io::read_surface(path).face_count() == sphere.face_count());
+
+    // Binary appended data, zlib-compressed.
+    const std::string text = read_text(path);
+    CHECK_THAT(text, Catch::Contains("vtkZLibDataCompressor"));
+    CHECK_THAT(text, Catch::Contains("<AppendedData encoding=\"raw\">"));
+}
+
+TEST_CASE("write_surface_vtu round trip keeps a two-region network", "[io]") {
+    const std::string dir = fixtures::temp_dir("io_vtu_two_regions");
+    const std::string path = dir + "/net.vtu";
+    const SurfaceNetwork net = two_region_network();
+    REQUIRE(all_regions_closed_and_oriented(net));
+
+    io::write_surface_vtu(net, path, {{"stage", "extract"}});
+    io::FieldStrings fields;
+    const SurfaceNetwork read = io::read_surface(path, &fields);
+    require_same_surface(read, net);
+    CHECK(fields == io::FieldStrings{{"stage", "extract"}});
+    CHECK(core::region_labels(read) == std::vector<core::Label>{1, 2});
+    CHECK(all_regions_closed_and_oriented(read));
+    CHECK(core::enclosed_volume(read, 1) == core::enclosed_volume(net, 1));
+}
+
+TEST_CASE("write_surface_vtu stores typed arrays and quality per cell", "[io]") {
+    const std::string dir = fixtures::temp_dir("io_vtu_arrays");
+    const std::string path = dir + "/net.vtu";
+    const SurfaceNetwork net = two_region_network();
+    io::write_surface_vtu(net, path, {{"frame", "lps"}});
+
+    vtkNew<vtkXMLUnstructuredGridReader> reader;
+    reader->SetFileName(path.c_str());
+    reader->Update();
+    vtkUnstructuredGrid* grid = reader->GetOutput();
+    REQUIRE(grid->GetNumberOfCells() == static_cast<vtkIdType>(net.face_count()));
+    CHECK(grid->GetPoints()->GetDataType() == VTK_DOUBLE);
+    for (vtkIdType c = 0; c < grid->GetNumberOfCells(); ++c)
+        REQUIRE(grid->GetCellType(c) == VTK_TRIANGLE);
+
+    vtkCellData* cd = grid->GetCellData();
+    auto* region_in = vtkIntArray::SafeDownCast(cd->GetAbstractArray("region_in"));
+    auto* region_out = vtkIntArray::SafeDownCast(cd->GetAbstractArray("region_out"));
+    auto* eta = vtkDoubleArray::SafeDownCast(cd->GetAbstractArray("eta"));
+    auto* min_angle = vtkDoubleArray::SafeDownCast(cd->GetAbstractArray("min_angle"));
+    REQUIRE(region_in != nullptr);
+    REQUIRE(region_out != nullptr);
+    REQUIRE(eta != nullptr);
+    REQUIRE(min_angle != nullptr);
+
+    for (std::size_t f = 0; f < net.face_count(); ++f) {
+        const auto c = static_cast<vtkIdType>(f);
+        const auto& t = net.faces[f];
+        const double expected_eta =
+            core::triangle_skewness(net.point(t[0]), net.point(t[1]), net.point(t[2]));
+        const double expected_angle =
+            core::triangle_min_angle_deg(net.point(t[0]), net.point(t[1]), net.point(t[2]));
+        REQUIRE(region_in->GetValue(c) == net.region_in[f]);
+        REQUIRE(region_out->GetValue(c) == net.region_out[f]);
+        REQUIRE(eta->GetValue(c) == Approx(expected_eta).margin(1e-12));
+        REQUIRE(min_angle->GetValue(c) == Approx(expected_angle).margin(1e-9));
+        REQUIRE(eta->GetValue(c) >= 0.0);
+        REQUIRE(eta->GetValue(c) < 1.0);
+        REQUIRE(min_angle->GetValue(c) > 0.0);
+        REQUIRE(min_angle->GetValue(c) <= 60.0 + 1e-9);
+    }
+
+    auto* frame = vtkStringArray::SafeDownCast(grid->GetFieldData()->GetAbstractArray("frame"));
+    REQUIRE(frame != nullptr);
+    REQUIRE(frame->GetNumberOfValues() == 1);
+    CHECK(frame->GetValue(0) == "lps");
+}
+
+TEST_CASE("write_surface_vtu output is byte-identical across writes", "[io]") {
+    const std::string dir = fixtures::temp_dir("io_vtu_deterministic");
+    const SurfaceNetwork net = two_region_network();
+    const io::FieldStrings fields = {{"stage", "repair"}, {"frame", "lps"}};
+    io::write_surface_vtu(net, dir + "/a.vtu", fields);
+    io::write_surface_vtu(net, dir + "/b.vtu", fields);
+    const std::string a = read_text(dir + "/a.vtu");
+    CHECK(!a.empty());
+    CHECK(a == read_text(dir + "/b.vtu"));
+}
+
+// --- other input formats -----------------------------------------------------------------
+
+TEST_CASE("read_surface reads STL written by VTK", "[io]") {
+    const std::string dir = fixtures::temp_dir("io_read_stl");
+    const SurfaceNetwork sphere = fixtures::uv_sphere(5.0, 12);
+    for (const bool binary : {true, false}) {
+        const std::string path = dir + (binary ? "/sphere_bin.stl" : "/sphere_ascii.STL");
+        vtkNew<vtkSTLWriter> writer;
+        writer->SetInputData(to_polydata(sphere));
+        writer->SetFileName(path.c_str());
+        if (binary)
+            writer->SetFileTypeToBinary();
+        else
+            writer->SetFileTypeToASCII();
+        REQUIRE(writer->Write() == 1);
+
+        io::FieldStrings fields{{"stale", "entry"}};
+        const SurfaceNetwork read = io::read_surface(path, &fields);
+        CHECK(fields.empty());
+        // STL stores float coordinates, one triangle at a time.
+        CHECK(same_corners(read, sphere, 1e-5));
+        CHECK(std::all_of(read.region_in.begin(), read.region_in.end(),
+                          [](int r) { return r == 1; }));
+        CHECK(std::all_of(read.region_out.begin(), read.region_out.end(),
+                          [](int r) { return r == 0; }));
+        CHECK(core::enclosed_volume(read, 1) ==
+              Approx(core::enclosed_volume(sphere, 1)).epsilon(1e-5));
+    }
+}
+
+TEST_CASE("read_surface reads PLY written by VTK", "[io]") {
+    const std::string dir = fixtures::temp_dir("io_read_ply");
+    const std::string path = dir + "/sphere.ply";
+    const SurfaceNetwork sphere = fixtures::uv_sphere(5.0, 12);
+    vtkNew<vtkPLYWriter> writer;
+    writer->SetInputData(to_polydata(sphere));
+    writer->SetFileName(path.c_str());
+    writer->SetFileTypeToBinary();
+    REQUIRE(writer->Write() == 1);
+
+    const SurfaceNetwork read = io::read_surface(path);
+    CHECK(same_corners(read, sphere, 1e-5));
+    CHECK(all_regions_closed_and_oriented(read));
+    CHECK(core::region_labels(read) == std::vector<core::Label>{1});
+}
+
+TEST_CASE("read_surface reads VTP with any integer region arrays", "[io]") {
+    const std::string dir = fixtures::temp_dir("io_read_vtp");
+    const std::string path = dir + "/net.vtp";
+    const SurfaceNetwork net = two_region_network();
+    auto poly = to_polydata(net);
+    vtkNew<vtkUnsignedCharArray> region_in;
+    vtkNew<vtkShortArray> region_out;
+    region_in->SetName("region_in");
+    region_out->SetName("region_out");
+    for (std::size_t f = 0; f < net.face_count(); ++f) {
+        region_in->InsertNextValue(static_cast<unsigned char>(net.region_in[f]));
+        region_out->InsertNextValue(static_cast<short>(net.region_out[f]));
+    }
+    poly->GetCellData()->AddArray(region_in);
+    poly->GetCellData()->AddArray(region_out);
+    vtkNew<vtkStringArray> stage;
+    stage->SetName("stage");
+    stage->InsertNextValue("input");
+    poly->GetFieldData()->AddArray(stage);
+
+    vtkNew<vtkXMLPolyDataWriter> writer;
+    writer->SetInputData(poly);
+    writer->SetFileName(path.c_str());
+    REQUIRE(writer->Write() == 1);
+
+    io::FieldStrings fields;
+    const SurfaceNetwork read = io::read_surface(path, &fields);
+    require_same_surface(read, net);
+    CHECK(fields == io::FieldStrings{{"stage", "input"}});
+}
+
+TEST_CASE("read_surface splits triangle strips keeping their orientation", "[io]") {
+    const std::string dir = fixtures::temp_dir("io_read_strip");
+    const std::string path = dir + "/strip.vtp";
+    // A 3 x 1 rectangle in z = 0 as one strip (with a repeated point, a zero-area
+    // connector) and one extra triangle; all counter-clockwise seen from +z.
+    vtkNew<vtkPoints> points;
+    points->SetDataTypeToDouble();
+    for (int i = 0; i <= 3; ++i) {
+        points->InsertNextPoint(i, 0, 0);
+        points->InsertNextPoint(i, 1, 0);
+    }
+    vtkNew<vtkCellArray> strips;
+    const vtkIdType strip[] = {0, 2, 1, 3, 3, 5};  // (0 2 1) (1 2 3) connector (3 3 5)...
+    strips->InsertNextCell(6, strip);
+    vtkNew<vtkCellArray> polys;
+    const vtkIdType t0[] = {4, 6, 5}, t1[] = {5, 6, 7};
+    polys->InsertNextCell(3, t0);
+    polys->InsertNextCell(3, t1);
+    vtkNew<vtkPolyData> poly;
+    poly->SetPoints(points);
+    poly->SetPolys(polys);
+    poly->SetStrips(strips);
+    vtkNew<vtkIntArray> region_in;
+    region_in->SetName("region_in");
+    region_in->InsertNextValue(4);  // polys come first in vtkPolyData cell order
+    region_in->InsertNextValue(4);
+    region_in->InsertNextValue(7);  // the strip
+    poly->GetCellData()->AddArray(region_in);
+    vtkNew<vtkXMLPolyDataWriter> writer;
+    writer->SetInputData(poly);
+    writer->SetFileName(path.c_str());
+    REQUIRE(writer->Write() == 1);
+
+    const SurfaceNetwork read = io::read_surface(path);
+    double area = 0.0;
+    for (std::size_t f = 0; f < read.face_count(); ++f) {
+        const auto& t = read.faces[f];
+        const Eigen::Vector3d n =
+            (read.point(t[1]) - read.point(t[0])).cross(read.point(t[2]) - read.point(t[0]));
+        CHECK(n.z() > 0.0);
+        area += 0.5 * n.norm();
+        CHECK(read.region_out[f] == 0);
+    }
+    // The strip covers [0,1] x [0,1]; the triangles [2,3] x [0,1]; the gap [1,2] is open.
+    CHECK(area == Approx(2.0));
+    CHECK(std::count(read.region_in.begin(), read.region_in.end(), 4) == 2);
+    CHECK(std::count(read.region_in.begin(), read.region_in.end(), 7) >= 2);
+}
+
+TEST_CASE("read_surface reads OFF exactly", "[io]") {
+    const std::string dir = fixtures::temp_dir("io_read_off");
+    const SurfaceNetwork sphere = fixtures::uv_sphere(2.5, 9);
+    const std::string path = dir + "/sphere.off";
+    write_off(sphere, path);
+    const SurfaceNetwork read = io::read_surface(path);
+    require_same_surface(read, sphere);
+
+    // Counts on the header line, comments, blank lines and face colours.
+    const std::string variant = dir + "/tet.OFF";
+    write_text(variant,
+               "OFF 4 4 6  # counts here\n\n"
+               "0 0 0\n1 0 0\n0 1 0\n0 0 1\n"
+               "3 0 2 1 255 0 0\n3 0 1 3\n3 1 2 3\n3 0 3 2 # last\n");
+    const SurfaceNetwork tet = io::read_surface(variant);
+    CHECK(all_regions_closed_and_oriented(tet));
+    CHECK(core::enclosed_volume(tet, 1) == Approx(1.0 / 6.0));
+}
+
+// --- errors ------------------------------------------------------------------------------
+
+TEST_CASE("read_surface rejects bad input with InputError naming the file", "[io]") {
+    const std::string dir = fixtures::temp_dir("io_read_errors");
+
+    SECTION("missing file") {
+        const std::string path = dir + "/nope.vtu";
+        CHECK(input_error_message([&] { io::read_surface(path); }) ==
+              "'" + path + "' does not exist");
+    }
+    SECTION("unknown extension") {
+        const std::string path = dir + "/mesh.obj";
+        write_text(path, "v 0 0 0\n");
+        const std::string msg = input_error_message([&] { io::read_surface(path); });
+        CHECK_THAT(msg, Catch::Contains(path));
+        for (const char* ext : {".vtu", ".vtp", ".stl", ".ply", ".off"})
+            CHECK_THAT(msg, Catch::Contains(ext));
+    }
+    SECTION("quad in OFF") {
+        const std::string path = dir + "/quad.off";
+        write_text(path, "OFF\n5 2 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n2 2 2\n3 0 1 4\n4 0 1 2 3\n");
+        const std::string msg = input_error_message([&] { io::read_surface(path); });
+        CHECK_THAT(msg, Catch::Contains(path));
+        CHECK_THAT(msg, Catch::Contains("face 1"));
+    }
+    SECTION("OFF with a bad vertex id, truncated, or not OFF") {
+        const std::string bad_id = dir + "/bad_id.off";
+        write_text(bad_id, "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 3\n");
+        CHECK_THAT(input_error_message([&] { io::read_surface(bad_id); }),
+                   Catch::Contains("vertex 3"));
+        const std::string truncated = dir + "/truncated.off";
+        write_text(truncated, "OFF\n3 1 0\n0 0 0\n1 0 0\n");
+        CHECK_THAT(input_error_message([&] { io::read_surface(truncated); }),
+                   Catch::Contains(truncated));
+        const std::string other = dir + "/other.off";
+        write_text(other, "COFF\n3 1 0\n0 0 0 1 1 1 1\n1 0 0 1 1 1 1\n0 1 0 1 1 1 1\n3 0 1 2\n");
+        CHECK_THAT(input_error_message([&] { io::read_surface(other); }), Catch::Contains("OFF"));
+    }
+    SECTION("no triangles") {
+        const std::string path = dir + "/empty.off";
+        write_text(path, "OFF\n3 0 0\n0 0 0\n1 0 0\n0 1 0\n");
+        CHECK_THAT(input_error_message([&] { io::read_surface(path); }),
+                   Catch::Contains("no triangles"));
+    }
+    SECTION("non-triangle cell in VTU") {
+        const std::string path = dir + "/mixed.vtu";
+        vtkNew<vtkPoints> points;
+        points->SetDataTypeToDouble();
+        for (const auto& p : {std::array<double, 3>{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}})
+            points->InsertNextPoint(p.data());
+        vtkNew<vtkUnstructuredGrid> grid;
+        grid->SetPoints(points);
+        const vtkIdType tri[] = {0, 1, 2}, quad[] = {0, 1, 2, 3};
+        grid->InsertNextCell(VTK_TRIANGLE, 3, tri);
+        grid->InsertNextCell(VTK_TRIANGLE, 3, tri);
+        grid->InsertNextCell(VTK_QUAD, 4, quad);
+        vtkNew<vtkXMLUnstructuredGridWriter> writer;
+        writer->SetInputData(grid);
+        writer->SetFileName(path.c_str());
+        REQUIRE(writer->Write() == 1);
+        const std::string msg = input_error_message([&] { io::read_surface(path); });
+        CHECK_THAT(msg, Catch::Contains(path));
+        CHECK_THAT(msg, Catch::Contains("cell 2"));
+    }
+    SECTION("line cell or float region array in VTP") {
+        const std::string path = dir + "/line.vtp";
+        auto poly = to_polydata(fixtures::octahedron());
+        vtkNew<vtkCellArray> lines;
+        const vtkIdType line[] = {0, 1};
+        lines->InsertNextCell(2, line);
+        poly->SetLines(lines);
+        vtkNew<vtkXMLPolyDataWriter> writer;
+        writer->SetInputData(poly);
+        writer->SetFileName(path.c_str());
+        REQUIRE(writer->Write() == 1);
+        CHECK_THAT(input_error_message([&] { io::read_surface(path); }), Catch::Contains("cell 0"));
+
+        const std::string floats = dir + "/float_regions.vtp";
+        auto poly2 = to_polydata(fixtures::octahedron());
+        vtkNew<vtkFloatArray> region_in;
+        region_in->SetName("region_in");
+        for (int i = 0; i < 8; ++i) region_in->InsertNextValue(1.0f);
+        poly2->GetCellData()->AddArray(region_in);
+        writer->SetInputData(poly2);
+        writer->SetFileName(floats.c_str());
+        REQUIRE(writer->Write() == 1);
+        CHECK_THAT(input_error_message([&] { io::read_surface(floats); }),
+                   Catch::Contains("region_in"));
+    }
+    SECTION("corrupt VTU") {
+        const std::string path = dir + "/corrupt.vtu";
+        write_text(path, "<VTKFile type=\"UnstructuredGrid\"> not really");
+        CHECK_THAT(input_error_message([&] { io::read_surface(path); }), Catch::Contains(path));
+    }
+}
+
+// --- ParaView collection ----------------------------------------------------------------
+
+TEST_CASE("write_pvd lists every entry with its index as timestep", "[io]") {
+    const std::string dir = fixtures::temp_dir("io_pvd");
+    const std::string path = dir + "/run.pvd";
+    const std::vector<std::pair<std::string, std::string>> entries = {
+        {"checkpoints/01-extract.vtu", "01-extract"},
+        {"checkpoints/02-repair.vtu", "02-repair"},
+        {"checkpoints/03 remesh & co.vtu", "03-remesh \"final\" <x>"}};
+    io::write_pvd(path, entries);
+    CHECK(folder_entries(dir) == std::vector<std::string>{"run.pvd"});
+
+    vtkNew<vtkXMLDataParser> parser;
+    parser->SetFileName(path.c_str());
+    REQUIRE(parser->Parse() == 1);
+    vtkXMLDataElement* root = parser->GetRootElement();
+    REQUIRE(root != nullptr);
+    CHECK(std::string(root->GetName()) == "VTKFile");
+    CHECK(std::string(root->GetAttribute("type")) == "Collection");
+    vtkXMLDataElement* collection = root->FindNestedElementWithName("Collection");
+    REQUIRE(collection != nullptr);
+    REQUIRE(collection->GetNumberOfNestedElements() == static_cast<int>(entries.size()));
+    for (int i = 0; i < collection->GetNumberOfNestedElements(); ++i) {
+        vtkXMLDataElement* ds = collection->GetNestedElement(i);
+        CHECK(std::string(ds->GetName()) == "DataSet");
+        CHECK(std::string(ds->GetAttribute("file")) == entries[i].first);
+        CHECK(std::string(ds->GetAttribute("name")) == entries[i].second);
+        CHECK(std::string(ds->GetAttribute("timestep")) == std::to_string(i));
+    }
+
+    // Rewriting with fewer entries replaces the file.
+    io::write_pvd(path, {entries[0]});
+    vtkNew<vtkXMLDataParser> again;
+    again->SetFileName(path.c_str());
+    REQUIRE(again->Parse() == 1);
+    CHECK(again->GetRootElement()
+              ->FindNestedElementWithName("Collection")
+              ->GetNumberOfNestedElements() == 1);
+}
