@@ -156,3 +156,14 @@ TEST_CASE("AAL atlas: 116 closed, oriented regions through the command line", "[
     CHECK_THAT(summary, Catch::Contains("\"regions\": 116, \"regions_closed\": 116, \"regions_oriented\": 116") &&
                             Catch::Contains("\"frame\": \"ras\""));
 }
+
+TEST_CASE("checkpoints are identical byte for byte across runs and thread counts", "[pipeline]") {
+    const std::string dir = phantom_run_dir("run_determinism");
+    REQUIRE(run_frontmesh("run recipe.yaml --quiet --threads 1", dir).exit_code == 0);
+    const std::string extract1 = slurp(fs::path(dir) / "out/checkpoints/01-extract.vtu");
+    const std::string repair1 = slurp(fs::path(dir) / "out/checkpoints/02-repair.vtu");
+    REQUIRE(run_frontmesh("run recipe.yaml --quiet --force --threads 2", dir).exit_code == 0);
+    CHECK(slurp(fs::path(dir) / "out/checkpoints/01-extract.vtu") == extract1);
+    CHECK(slurp(fs::path(dir) / "out/checkpoints/02-repair.vtu") == repair1);
+    CHECK(repair1.size() > 10000);
+}
