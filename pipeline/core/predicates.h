@@ -1,6 +1,9 @@
 #pragma once
 // Robust geometric predicates: a floating-point filter with an exact fallback
-// (expansion arithmetic after Shewchuk, DCG 1997). Exact signs for any finite double input.
+// (expansion arithmetic after Shewchuk, DCG 1997). Exact signs for finite input at any absolute
+// scale, provided every nonzero coordinate of one call is at least 2^-160 times the largest
+// magnitude in that call (2^-300 for orient3d, 2^-480 for orient2d); smaller ones could make a
+// product of coordinates underflow.
 // Use them for decisions (orientation, intersection); rank candidates with plain doubles.
 
 #include <Eigen/Core>
@@ -26,11 +29,16 @@ int orient2d(const double* a, const double* b, const double* c, int i, int j);
 int insphere(const double* a, const double* b, const double* c, const double* d,
              const double* e);
 
-/// True when the closed segment [p, q] and the closed triangle (a, b, c) share a point.
+/// True when a, b, c are collinear (including coincident points): the triangle has zero area.
+bool is_degenerate_triangle(const double* a, const double* b, const double* c);
+
+/// True when the closed segment [p, q] and the closed triangle (a, b, c) share a point. Handles
+/// coplanar input and degenerate segments and triangles (a point, or collinear vertices).
 bool segment_intersects_triangle(const double* p, const double* q, const double* a,
                                  const double* b, const double* c);
 
-/// True when the closed triangles (a0, a1, a2) and (b0, b1, b2) share a point.
+/// True when the closed triangles (a0, a1, a2) and (b0, b1, b2) share a point. Degenerate
+/// triangles (collinear or coincident vertices) are treated as the segment or point they span.
 bool triangles_intersect(const double* a0, const double* a1, const double* a2, const double* b0,
                          const double* b1, const double* b2);
 

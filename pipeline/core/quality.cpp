@@ -59,18 +59,19 @@ double tet_skewness(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Ei
 
 double tet_min_dihedral_deg(const Eigen::Vector3d& a, const Eigen::Vector3d& b,
                             const Eigen::Vector3d& c, const Eigen::Vector3d& d) {
-    const std::array<Eigen::Vector3d, 4> p{a, b, c, d};
-    // Outward-agnostic face normals; face i is opposite vertex i.
+    // Face normals from a consistently oriented boundary, face i opposite vertex i: all outward
+    // when the signed volume is positive, all inward when negative. Deciding each face's side
+    // from the opposite vertex instead fails for flat tetrahedra (that vertex lies in the
+    // face's plane) and could report 180 degrees where the true answer is 0.
+    const std::array<std::array<const Eigen::Vector3d*, 3>, 4> faces{{
+        {&b, &c, &d}, {&a, &d, &c}, {&a, &b, &d}, {&a, &c, &b}}};
     std::array<Eigen::Vector3d, 4> n;
     for (int i = 0; i < 4; ++i) {
-        const Eigen::Vector3d& p0 = p[(i + 1) % 4];
-        const Eigen::Vector3d& p1 = p[(i + 2) % 4];
-        const Eigen::Vector3d& p2 = p[(i + 3) % 4];
-        Eigen::Vector3d normal = (p1 - p0).cross(p2 - p0);
-        if (normal.dot(p[i] - p0) > 0.0) normal = -normal;  // make it point away from vertex i
+        const auto& f = faces[static_cast<std::size_t>(i)];
+        const Eigen::Vector3d normal = (*f[1] - *f[0]).cross(*f[2] - *f[0]);
         const double length = normal.norm();
         if (length == 0.0) return 0.0;
-        n[i] = normal / length;
+        n[static_cast<std::size_t>(i)] = normal / length;
     }
     double smallest = 180.0;
     for (int i = 0; i < 4; ++i) {
