@@ -20,6 +20,7 @@
 #include <vtkUnsignedCharArray.h>
 
 #include "pipeline/core/error.h"
+#include "pipeline/core/self_intersection.h"
 
 namespace frontmesh::surface {
 namespace {
@@ -347,6 +348,7 @@ core::SurfaceNetwork surface_nets(const core::LabelImage& image, std::vector<Lab
         }
     }
     const double lambda = params.smoothing_relaxation;
+    const std::vector<Eigen::Vector3d> unsmoothed = position;
     std::vector<Eigen::Vector3d> next(nv);
     for (int pass = 0; pass < params.smoothing_iterations; ++pass) {
         for (std::size_t v = 0; v < nv; ++v) {
@@ -384,6 +386,30 @@ core::SurfaceNetwork surface_nets(const core::LabelImage& image, std::vector<Lab
             if (flip) std::swap(t[1], t[2]);
             out.add_face(t[0], t[1], t[2], q.in, q.out);
         }
+    }
+    // Smoothing can fold faces across a thin gap or a sharp junction; the unsmoothed net
+    // does not. Put the vertices of intersecting faces back until none is left.
+    if (params.smoothing_iterations > 0) {
+        std::size_t restored = 0;
+        for (int round = 0; round < 8; ++round) {
+            const auto pairs = core::self_intersections(out);
+            if (pairs.empty()) break;
+            std::vector<std::int32_t> vertices;
+            for (const auto& [f, g] : pairs)
+                for (std::int32_t face : {f, g})
+                    for (std::int32_t v : out.faces[static_cast<std::size_t>(face)]) vertices.push_back(v);
+            std::sort(vertices.begin(), vertices.end());
+            vertices.erase(std::unique(vertices.begin(), vertices.end()), vertices.end());
+            for (std::int32_t v : vertices) {
+                const Eigen::Vector3d p = to_physical(unsmoothed[static_cast<std::size_t>(v)]);
+                if (out.point(v) != p) ++restored;
+                out.point(v) = p;
+            }
+        }
+        ctx.count("extract.vertices_unsmoothed", static_cast<double>(restored));
+        if (restored > 0)
+            ctx.info("extract: " + std::to_string(restored) +
+                     " smoothed vertices put back where smoothing made faces intersect");
     }
     return out;
 }
