@@ -1,5 +1,6 @@
 #include "pipeline/cli.h"
 
+#include <algorithm>
 #include <cstring>
 #include <filesystem>
 #include <iostream>
@@ -9,6 +10,7 @@
 
 #include <tbb/global_control.h>
 
+#include "pipeline/cohort.h"
 #include "pipeline/core/error.h"
 #include "pipeline/recipe.h"
 #include "pipeline/runner.h"
@@ -26,6 +28,8 @@ Usage:
   frontmesh run RECIPE.yaml [--set key.path=value ...] [--from STAGE] [--until STAGE]
                             [--force] [--threads N] [--quiet]
   frontmesh validate RECIPE.yaml [--set key.path=value ...]
+  frontmesh cohort MANIFEST.csv --recipe RECIPE.yaml [-j N] [--set key.path=value ...]
+                            [--force] [--threads N] [--quiet]
   frontmesh keys                 list every recipe key with its default
   frontmesh --help | --version
 
@@ -34,6 +38,10 @@ Commands:
             OUTPUT/checkpoints/NN-STAGE.vtu; OUTPUT/run.pvd opens the whole run in
             ParaView; OUTPUT/summary.json has times, memory and quality figures
   validate  check the recipe and its input files without running anything
+  cohort    run the recipe for every subject of MANIFEST.csv (columns id, image, then
+            recipe keys as per-subject overrides) into OUTPUT/ID/, N subjects at a time
+            (-j N), each in its own process; writes OUTPUT/cohort-summary.csv and .json;
+            finished subjects are skipped on a re-run; exit 1 if any subject failed
 
 Options:
   --set key.path=value  override a recipe key (YAML value), e.g. --set input.threshold=30
@@ -42,20 +50,33 @@ Options:
   --force               run every stage even if its checkpoint is up to date
   --threads N           worker threads (default: all cores); results do not depend on it
   --quiet               only warnings and errors on the terminal (the log has all)
+  --recipe FILE         cohort: the recipe every subject runs
+  -j, --jobs N          cohort: subjects running at the same time (default 1)
 
 Stages, in order: extract, repair (remesh, tetra and refine are to come).
 A stage whose input and parameters are unchanged since the last run is skipped.
 Every recipe key, its default and unit: configs/reference.yaml.
 
-Exit codes: 0 success, 2 bad input or recipe, 1 internal failure.
+Exit codes: 0 success, 2 bad input or recipe, 1 internal failure
+(cohort: 2 bad manifest or recipe, 1 when any subject failed).
 )";
 
 struct Arguments {
-    std::string command, recipe, from, until;
+    std::string command, recipe, from, until, cohort_recipe;
     std::vector<std::string> overrides;
     bool force = false, quiet = false;
-    int threads = 0;
+    int threads = 0, jobs = 0;
 };
+
+int whole_number(const std::string& flag, const std::string& v) {
+    int n = -1;
+    try {
+        n = std::stoi(v);
+    } catch (...) {
+    }
+    if (n < 1) FM_THROW(InputError, flag + " " + v + ": expected a whole number >= 1");
+    return n;
+}
 
 Arguments parse(int argc, char** argv) {
     Arguments a;
@@ -72,15 +93,11 @@ Arguments parse(int argc, char** argv) {
         else if (arg == "--until") a.until = value(i);
         else if (arg == "--force") a.force = true;
         else if (arg == "--quiet") a.quiet = true;
-        else if (arg == "--threads") {
-            const std::string v = value(i);
-            try {
-                a.threads = std::stoi(v);
-            } catch (...) {
-                a.threads = -1;
-            }
-            if (a.threads < 1) FM_THROW(InputError, "--threads " + v + ": expected a whole number >= 1");
-        } else if (!arg.empty() && arg[0] == '-') {
+        else if (arg == "--threads") a.threads = whole_number(arg, value(i));
+        else if (arg == "--recipe") a.cohort_recipe = value(i);
+        else if (arg == "-j" || arg == "--jobs") a.jobs = whole_number(arg, value(i));
+        else if (arg.size() > 2 && arg.rfind("-j", 0) == 0) a.jobs = whole_number("-j", arg.substr(2));
+        else if (!arg.empty() && arg[0] == '-') {
             FM_THROW(InputError, arg + ": unknown option (see frontmesh --help)");
         } else if (a.command.empty()) {
             a.command = arg;
@@ -91,6 +108,27 @@ Arguments parse(int argc, char** argv) {
         }
     }
     return a;
+}
+
+int run_cohort_command(const Arguments& args) {
+    if (args.recipe.empty() || args.cohort_recipe.empty())
+        FM_THROW(InputError, "cohort: usage: frontmesh cohort MANIFEST.csv --recipe RECIPE.yaml [-j N]");
+    if (!args.from.empty() || !args.until.empty()) FM_THROW(InputError, "cohort: --from and --until are for run");
+    CohortOptions options;
+    options.recipe = args.cohort_recipe;
+    options.overrides = args.overrides;
+    options.jobs = std::max(args.jobs, 1);
+    options.force = args.force;
+    options.threads = args.threads;
+    if (!args.quiet) options.on_progress = [](const std::string& line) { std::cerr << line << '\n'; };
+    const CohortResult result = run_cohort(args.recipe, options);
+    const auto root = std::filesystem::path(result.root);
+    std::cout << "\nSubjects: " << result.count(SubjectStatus::Ok) << " ok, " << result.count(SubjectStatus::Skipped)
+              << " skipped (up to date), " << result.count(SubjectStatus::Failed) << " failed"
+              << "\nSummary:  " << (root / "cohort-summary.csv").string() << "\n          "
+              << (root / "cohort-summary.json").string() << "\nResults:  " << (root / "ID").string()
+              << "/ (each with its summary.json, frontmesh.log and cohort-run.log)\n";
+    return result.count(SubjectStatus::Failed) ? 1 : 0;
 }
 
 }  // namespace
@@ -116,8 +154,11 @@ int run_cli(int argc, char** argv) {
             for (const auto& [key, value] : recipe_keys()) std::cout << key << ": " << value << '\n';
             return 0;
         }
+        if (args.command == "cohort") return run_cohort_command(args);
         if (args.command != "run" && args.command != "validate")
-            FM_THROW(InputError, args.command + ": unknown command; use run, validate or keys (see frontmesh --help)");
+            FM_THROW(InputError, args.command + ": unknown command; use run, validate, cohort or keys (see frontmesh --help)");
+        if (!args.cohort_recipe.empty() || args.jobs)
+            FM_THROW(InputError, std::string(args.jobs ? "-j" : "--recipe") + ": only for frontmesh cohort");
         if (args.recipe.empty()) FM_THROW(InputError, args.command + ": needs a recipe file (frontmesh " + args.command + " RECIPE.yaml)");
         const Recipe recipe = load_recipe(args.recipe, args.overrides);
         if (args.command == "validate") {
