@@ -74,14 +74,19 @@ std::vector<std::int32_t> brute_sphere(const Reference& ref, const Vector3d& c, 
     return ids;
 }
 
-// All live items ordered by (squared distance, id).
-std::vector<AdtNeighbor> brute_order(const Reference& ref, const Vector3d& p) {
+// The first `count` live items ordered by (squared distance, id).
+std::vector<AdtNeighbor> brute_order(const Reference& ref, const Vector3d& p,
+                                     std::size_t count = 20) {
     std::vector<AdtNeighbor> all;
     for (std::size_t i = 0; i < ref.boxes.size(); ++i)
         if (ref.alive[i]) all.push_back({static_cast<std::int32_t>(i), dist2(ref.boxes[i], p)});
-    std::sort(all.begin(), all.end(), [](const AdtNeighbor& a, const AdtNeighbor& b) {
-        return a.distance2 < b.distance2 || (a.distance2 == b.distance2 && a.id < b.id);
-    });
+    count = std::min(count, all.size());
+    std::partial_sort(all.begin(), all.begin() + static_cast<std::ptrdiff_t>(count), all.end(),
+                      [](const AdtNeighbor& a, const AdtNeighbor& b) {
+                          return a.distance2 < b.distance2 ||
+                                 (a.distance2 == b.distance2 && a.id < b.id);
+                      });
+    all.resize(count);
     return all;
 }
 
@@ -156,7 +161,8 @@ void check_nearest(const Adt& adt, const Reference& ref, const std::vector<Vecto
         REQUIRE(n.distance2 == order.front().distance2);
         for (const std::int32_t k : {3, 17}) {
             adt.nearest_k(p, k, got);
-            REQUIRE(got.size() == std::min<std::size_t>(static_cast<std::size_t>(k), order.size()));
+            REQUIRE(got.size() == std::min<std::size_t>(static_cast<std::size_t>(k),
+                                                         static_cast<std::size_t>(adt.size())));
             for (std::size_t i = 0; i < got.size(); ++i) {
                 REQUIRE(got[i].id == order[i].id);
                 REQUIRE(got[i].distance2 == order[i].distance2);
