@@ -24,7 +24,8 @@ void validate(const RepairParams& params);
 
 /// Merges coincident points, drops degenerate and duplicate faces, removes small
 /// components, orients every face outward from region_in, fills holes up to
-/// `max_hole_edges`, splits non-manifold vertices that are not multi-material junctions,
+/// `max_hole_edges`, splits non-manifold vertices of the outer boundary (pinches between a
+/// region and the outside; pinches inside the domain and junctions are kept, counted),
 /// detects self-intersections, and verifies that every region's boundary is closed and
 /// consistently oriented. Counts of what changed go to `ctx` counters.
 /// Throws GeometryError naming the region and the place when it cannot repair.
