@@ -1,0 +1,489 @@
+#include "pipeline/core/adt.h"
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+#include <utility>
+
+#include "pipeline/core/error.h"
+
+namespace frontmesh::core {
+
+namespace {
+
+constexpr double infinity = std::numeric_limits<double>::infinity();
+
+// A node's region of key space, with the node. Bounds lo[k] <= key k <= hi[k] hold for the
+// exact (unclamped) keys of the node's item and of every item below it. Keys are clamped to
+// the domain only to choose a branch, so a side of the region still on the domain boundary
+// bounds nothing and is stored as -inf / +inf; the split value is rebuilt from the domain.
+template <int K>
+struct Frame {
+    std::int32_t node;
+    std::uint32_t k;  // key coordinate the node splits, 0 .. K - 1
+    double lo[K];
+    double hi[K];
+};
+
+// Each thread reuses its own stack, so concurrent const queries share nothing and a query
+// allocates only while the stack grows past its previous maximum depth.
+template <int K>
+std::vector<Frame<K>>& traversal_stack() {
+    thread_local std::vector<Frame<K>> stack;
+    return stack;
+}
+
+// Axis (0..2) of key coordinate k: keys 0..2 are the box minima, keys 3..5 the maxima.
+constexpr int axis_of(int k) { return k < 3 ? k : k - 3; }
+
+// Key coordinate that bounds the item maxima on axis a (for points the maxima are the minima).
+template <int K>
+constexpr int max_key(int a) {
+    return K == 6 ? a + 3 : a;
+}
+
+// For points every key bounds both the minimum and the maximum on its axis.
+template <int K>
+constexpr bool is_min_key(int k) {
+    return K == 3 || k < 3;
+}
+template <int K>
+constexpr bool is_max_key(int k) {
+    return K == 3 || k >= 3;
+}
+
+template <int K>
+Frame<K> root_frame(std::int32_t root) {
+    Frame<K> f;
+    f.node = root;
+    f.k = 0;
+    for (int k = 0; k < K; ++k) {
+        f.lo[k] = -infinity;
+        f.hi[k] = infinity;
+    }
+    return f;
+}
+
+// Bisection value of the node's region in coordinate f.k. Insertion and every query use this
+// one function, so they take identical branch decisions. 0.5 lo + 0.5 hi cannot overflow and
+// lies in [lo, hi].
+template <int K>
+double split_value(const Frame<K>& f, const AdtBox& domain) {
+    const int a = axis_of(f.k);
+    const double lo = std::max(f.lo[f.k], domain.lo[a]);
+    const double hi = std::min(f.hi[f.k], domain.hi[a]);
+    return 0.5 * lo + 0.5 * hi;
+}
+
+// Turns frame `f` of a node into the frame of its child on `side` (0: clamped key < split,
+// 1: clamped key >= split). A split on the domain boundary (zero extent or exhausted
+// precision) bounds nothing.
+template <int K>
+void descend(Frame<K>& f, int side, double split, std::int32_t child, const AdtBox& domain) {
+    const int a = axis_of(f.k);
+    if (side == 0)
+        f.hi[f.k] = split < domain.hi[a] ? split : infinity;
+    else
+        f.lo[f.k] = split > domain.lo[a] ? split : -infinity;
+    f.node = child;
+    f.k = (f.k + 1) % K;
+}
+
+// Lower bound of squared_distance(item box, p) over the items of a region. The arithmetic
+// mirrors squared_distance term by term (max is exact, rounding is monotone), so the bound
+// never exceeds the computed distance of an item in the region and pruning with it is exact.
+template <int K>
+double lower_bound_distance2(const Frame<K>& f, const Eigen::Vector3d& p) {
+    double d2 = 0.0;
+    for (int a = 0; a < 3; ++a) {
+        const double d = std::max(std::max(f.lo[a] - p[a], p[a] - f.hi[max_key<K>(a)]), 0.0);
+        d2 += d * d;
+    }
+    return d2;
+}
+
+// True when the split that made child frame `c` (coordinate k, side) only moved a bound of the
+// region up to or past p: the child's lower_bound_distance2 to p then equals its parent's.
+template <int K>
+bool has_parent_lower_bound(const Frame<K>& c, int k, int side, const Eigen::Vector3d& p) {
+    const int a = axis_of(k);
+    if (side == 0) return !is_max_key<K>(k) || !(c.hi[k] < p[a]);
+    return !is_min_key<K>(k) || !(c.lo[k] > p[a]);
+}
+
+// squared_distance of a stored key (lo = key[0..2], hi = key[3..5]) to p; the same value.
+inline double key_distance2(const double* key, const Eigen::Vector3d& p) {
+    double d2 = 0.0;
+    for (int a = 0; a < 3; ++a) {
+        const double d = std::max(std::max(key[a] - p[a], p[a] - key[a + 3]), 0.0);
+        d2 += d * d;
+    }
+    return d2;
+}
+
+// Depth-first walk from `root`. `visit(node)` runs on every node reached; a child is reached
+// only when `keep(child_frame, split_key, side)` accepts its region. The walk continues into
+// the first child in place and leaves the second on the stack, so the stack holds at most one
+// frame per level.
+template <int K, class Nodes, class Keep, class Visit>
+void depth_first(const Nodes& nodes, std::int32_t root, const AdtBox& domain, Keep&& keep,
+                 Visit&& visit) {
+    if (root < 0) return;
+    auto& stack = traversal_stack<K>();
+    stack.clear();
+    Frame<K> f = root_frame<K>(root);
+    while (true) {
+        const auto& n = nodes[static_cast<std::size_t>(f.node)];
+        visit(n);
+        bool has_next = false;
+        if (n.child[0] >= 0 || n.child[1] >= 0) {
+            const double split = split_value(f, domain);
+            const int k = f.k;
+            if (n.child[1] >= 0) {
+                Frame<K>& c = stack.emplace_back(f);
+                descend(c, 1, split, n.child[1], domain);
+                if (!keep(c, k, 1)) stack.pop_back();
+            }
+            if (n.child[0] >= 0) {
+                Frame<K> c = f;
+                descend(c, 0, split, n.child[0], domain);
+                if (keep(c, k, 0)) {
+                    f = c;
+                    has_next = true;
+                }
+            }
+        }
+        if (!has_next) {
+            if (stack.empty()) return;
+            f = stack.back();
+            stack.pop_back();
+        }
+    }
+}
+
+bool has_nan(const Eigen::Vector3d& v) { return v.array().isNaN().any(); }
+
+}  // namespace
+
+Adt::Adt(const AdtBox& domain, AdtItems items)
+    : domain_(domain), key_dim_(items == AdtItems::points ? 3 : 6) {
+    if (!domain.is_valid())
+        FM_THROW(InputError, "ADT: root domain must be finite with lo <= hi on every axis");
+}
+
+std::int32_t Adt::allocate_node() {
+    if (free_head_ >= 0) {
+        const std::int32_t node = free_head_;
+        free_head_ = nodes_[static_cast<std::size_t>(node)].child[0];
+        return node;
+    }
+    FM_CHECK(nodes_.size() < static_cast<std::size_t>(std::numeric_limits<std::int32_t>::max()));
+    nodes_.emplace_back();
+    return static_cast<std::int32_t>(nodes_.size() - 1);
+}
+
+void Adt::insert(std::int32_t id, const Eigen::Vector3d& p) {
+    if (!p.allFinite())
+        FM_THROW(InputError, "ADT: point of item " + std::to_string(id) + " is not finite");
+    insert(id, AdtBox::of_point(p));
+}
+
+void Adt::insert(std::int32_t id, const AdtBox& box) {
+    FM_CHECK(id >= 0);
+    FM_CHECK(!contains(id));
+    if (!box.is_valid())
+        FM_THROW(InputError, "ADT: box of item " + std::to_string(id) +
+                                 " is not finite or has lo > hi on some axis");
+    FM_CHECK(key_dim_ == 6 || box.lo == box.hi);
+
+    const std::int32_t node = allocate_node();
+    Node& n = nodes_[static_cast<std::size_t>(node)];
+    for (int a = 0; a < 3; ++a) {
+        n.key[a] = box.lo[a];
+        n.key[a + 3] = box.hi[a];
+    }
+    n.id = id;
+    n.parent = -1;
+    n.child[0] = n.child[1] = -1;
+    if (static_cast<std::size_t>(id) >= node_of_id_.size())
+        node_of_id_.resize(static_cast<std::size_t>(id) + 1, -1);
+    node_of_id_[static_cast<std::size_t>(id)] = node;
+    ++size_;
+
+    if (key_dim_ == 3)
+        insert_key<3>(node);
+    else
+        insert_key<6>(node);
+}
+
+// Bonet & Peraire: descend from the root bisecting the region in key coordinate depth mod K
+// and hang the node at the first empty child. Keys outside the domain are clamped onto it.
+template <int K>
+void Adt::insert_key(std::int32_t node) {
+    if (root_ < 0) {
+        root_ = node;
+        return;
+    }
+    double key[K];
+    for (int k = 0; k < K; ++k) {
+        const int a = axis_of(k);
+        key[k] =
+            std::clamp(nodes_[static_cast<std::size_t>(node)].key[k], domain_.lo[a], domain_.hi[a]);
+    }
+    Frame<K> f = root_frame<K>(root_);
+    while (true) {
+        const double split = split_value(f, domain_);
+        const int side = key[f.k] < split ? 0 : 1;
+        Node& parent = nodes_[static_cast<std::size_t>(f.node)];
+        if (parent.child[side] < 0) {
+            parent.child[side] = node;
+            nodes_[static_cast<std::size_t>(node)].parent = f.node;
+            return;
+        }
+        descend(f, side, split, parent.child[side], domain_);
+    }
+}
+
+bool Adt::remove(std::int32_t id) {
+    if (!contains(id)) return false;
+    const std::int32_t node = node_of_id_[static_cast<std::size_t>(id)];
+    node_of_id_[static_cast<std::size_t>(id)] = -1;
+
+    // A leaf below `node` lies in a sub-region of node's region, so its item may move up.
+    std::int32_t leaf = node;
+    while (true) {
+        const Node& l = nodes_[static_cast<std::size_t>(leaf)];
+        if (l.child[0] >= 0)
+            leaf = l.child[0];
+        else if (l.child[1] >= 0)
+            leaf = l.child[1];
+        else
+            break;
+    }
+    if (leaf != node) {
+        Node& target = nodes_[static_cast<std::size_t>(node)];
+        const Node& source = nodes_[static_cast<std::size_t>(leaf)];
+        std::copy(source.key, source.key + 6, target.key);
+        target.id = source.id;
+        node_of_id_[static_cast<std::size_t>(target.id)] = node;
+    }
+
+    Node& l = nodes_[static_cast<std::size_t>(leaf)];
+    if (l.parent < 0) {
+        root_ = -1;
+    } else {
+        Node& parent = nodes_[static_cast<std::size_t>(l.parent)];
+        parent.child[parent.child[0] == leaf ? 0 : 1] = -1;
+    }
+    l.id = -1;
+    l.parent = -1;
+    l.child[0] = free_head_;
+    l.child[1] = -1;
+    free_head_ = leaf;
+    --size_;
+    return true;
+}
+
+AdtBox Adt::box(std::int32_t id) const {
+    FM_CHECK(contains(id));
+    const Node& n = nodes_[static_cast<std::size_t>(node_of_id_[static_cast<std::size_t>(id)])];
+    return {Eigen::Vector3d(n.key[0], n.key[1], n.key[2]),
+            Eigen::Vector3d(n.key[3], n.key[4], n.key[5])};
+}
+
+void Adt::clear() {
+    nodes_.clear();
+    node_of_id_.clear();
+    root_ = -1;
+    free_head_ = -1;
+    size_ = 0;
+}
+
+void Adt::reserve(std::int32_t items) {
+    if (items <= 0) return;
+    nodes_.reserve(static_cast<std::size_t>(items));
+    node_of_id_.reserve(static_cast<std::size_t>(items));
+}
+
+void Adt::compact() {
+    std::vector<Node> ordered;
+    ordered.reserve(static_cast<std::size_t>(size_));
+    std::vector<std::int32_t> new_index(nodes_.size(), -1);
+    // Pre-order with the first child next to its parent: a subtree occupies one index range.
+    std::vector<std::int32_t> stack;
+    if (root_ >= 0) stack.push_back(root_);
+    while (!stack.empty()) {
+        const std::int32_t node = stack.back();
+        stack.pop_back();
+        new_index[static_cast<std::size_t>(node)] = static_cast<std::int32_t>(ordered.size());
+        const Node& n = nodes_[static_cast<std::size_t>(node)];
+        ordered.push_back(n);
+        if (n.child[1] >= 0) stack.push_back(n.child[1]);
+        if (n.child[0] >= 0) stack.push_back(n.child[0]);
+    }
+    for (Node& n : ordered) {
+        if (n.parent >= 0) n.parent = new_index[static_cast<std::size_t>(n.parent)];
+        for (std::int32_t& c : n.child)
+            if (c >= 0) c = new_index[static_cast<std::size_t>(c)];
+        node_of_id_[static_cast<std::size_t>(n.id)] =
+            new_index[static_cast<std::size_t>(node_of_id_[static_cast<std::size_t>(n.id)])];
+    }
+    nodes_ = std::move(ordered);
+    root_ = nodes_.empty() ? -1 : 0;
+    free_head_ = -1;
+}
+
+template <int K>
+void Adt::collect_box(const AdtBox& query, std::vector<std::int32_t>& out_ids) const {
+    // A child differs from its parent in one key bound, so only that bound is tested: items
+    // with min > query.hi or max < query.lo cannot intersect.
+    auto keep = [&](const Frame<K>& c, int split, int side) {
+        const int a = axis_of(split);
+        if (side == 0 && is_max_key<K>(split)) return !(c.hi[split] < query.lo[a]);
+        if (side == 1 && is_min_key<K>(split)) return !(c.lo[split] > query.hi[a]);
+        return true;
+    };
+    auto visit = [&](const Node& n) {
+        if (n.key[0] <= query.hi[0] && n.key[1] <= query.hi[1] && n.key[2] <= query.hi[2] &&
+            n.key[3] >= query.lo[0] && n.key[4] >= query.lo[1] && n.key[5] >= query.lo[2])
+            out_ids.push_back(n.id);
+    };
+    depth_first<K>(nodes_, root_, domain_, keep, visit);
+}
+
+void Adt::query_box(const AdtBox& query, std::vector<std::int32_t>& out_ids) const {
+    out_ids.clear();
+    if (has_nan(query.lo) || has_nan(query.hi))
+        FM_THROW(InputError, "ADT: query box has a NaN coordinate");
+    if ((query.lo.array() > query.hi.array()).any()) return;
+    if (key_dim_ == 3)
+        collect_box<3>(query, out_ids);
+    else
+        collect_box<6>(query, out_ids);
+    std::sort(out_ids.begin(), out_ids.end());
+}
+
+template <int K>
+void Adt::collect_sphere(const Eigen::Vector3d& center, double radius2,
+                         std::vector<std::int32_t>& out_ids) const {
+    // A child's bound is recomputed only when the split cut the region on the far side.
+    auto keep = [&](const Frame<K>& c, int k, int side) {
+        return has_parent_lower_bound(c, k, side, center) ||
+               lower_bound_distance2<K>(c, center) <= radius2;
+    };
+    auto visit = [&](const Node& n) {
+        if (key_distance2(n.key, center) <= radius2) out_ids.push_back(n.id);
+    };
+    depth_first<K>(nodes_, root_, domain_, keep, visit);
+}
+
+void Adt::query_sphere(const Eigen::Vector3d& center, double radius,
+                       std::vector<std::int32_t>& out_ids) const {
+    out_ids.clear();
+    if (!center.allFinite() || std::isnan(radius))
+        FM_THROW(InputError, "ADT: sphere query has a non-finite centre or a NaN radius");
+    if (radius < 0.0) return;
+    if (key_dim_ == 3)
+        collect_sphere<3>(center, radius * radius, out_ids);
+    else
+        collect_sphere<6>(center, radius * radius, out_ids);
+    std::sort(out_ids.begin(), out_ids.end());
+}
+
+namespace {
+
+// Order of nearest-query results: by squared distance, then by id.
+bool closer(const AdtNeighbor& a, const AdtNeighbor& b) {
+    return a.distance2 < b.distance2 || (a.distance2 == b.distance2 && a.id < b.id);
+}
+
+}  // namespace
+
+// Depth-first branch and bound keeping the k best items in a max-heap under `closer`. The
+// child on the query's side of the split is visited first; a region is skipped only when its
+// lower bound exceeds the k-th best distance strictly, so equal distances with smaller ids
+// are still found.
+template <int K>
+void Adt::collect_nearest(const Eigen::Vector3d& p, std::size_t k,
+                          std::vector<AdtNeighbor>& heap) const {
+    if (root_ < 0 || k == 0) return;
+    auto bound = [&] { return heap.size() < k ? infinity : heap.front().distance2; };
+    auto& stack = traversal_stack<K>();
+    stack.clear();
+    Frame<K> f = root_frame<K>(root_);
+    while (true) {
+        const Node& n = nodes_[static_cast<std::size_t>(f.node)];
+        const AdtNeighbor candidate{n.id, key_distance2(n.key, p)};
+        if (heap.size() < k) {
+            heap.push_back(candidate);
+            std::push_heap(heap.begin(), heap.end(), closer);
+        } else if (closer(candidate, heap.front())) {
+            std::pop_heap(heap.begin(), heap.end(), closer);
+            heap.back() = candidate;
+            std::push_heap(heap.begin(), heap.end(), closer);
+        }
+
+        // The child on the query's side of the split continues in place, the other waits.
+        bool has_next = false;
+        if (n.child[0] >= 0 || n.child[1] >= 0) {
+            const double split = split_value(f, domain_);
+            const int a = axis_of(f.k);
+            const int near = std::clamp(p[a], domain_.lo[a], domain_.hi[a]) < split ? 0 : 1;
+            if (n.child[1 - near] >= 0) {
+                Frame<K>& c = stack.emplace_back(f);
+                descend(c, 1 - near, split, n.child[1 - near], domain_);
+                if (lower_bound_distance2<K>(c, p) > bound()) stack.pop_back();
+            }
+            if (n.child[near] >= 0) {
+                Frame<K> c = f;
+                descend(c, near, split, n.child[near], domain_);
+                if (lower_bound_distance2<K>(c, p) <= bound()) {
+                    f = c;
+                    has_next = true;
+                }
+            }
+        }
+        // A waiting region is dropped when the best distances shrank below its bound.
+        while (!has_next && !stack.empty()) {
+            f = stack.back();
+            stack.pop_back();
+            has_next = lower_bound_distance2<K>(f, p) <= bound();
+        }
+        if (!has_next) return;
+    }
+}
+
+AdtNeighbor Adt::nearest(const Eigen::Vector3d& p) const {
+    thread_local std::vector<AdtNeighbor> best;  // per thread: no allocation per query
+    nearest_k(p, 1, best);
+    return best.empty() ? AdtNeighbor{} : best.front();
+}
+
+void Adt::nearest_k(const Eigen::Vector3d& p, std::int32_t k, std::vector<AdtNeighbor>& out) const {
+    out.clear();
+    if (!p.allFinite()) FM_THROW(InputError, "ADT: nearest query point is not finite");
+    if (k <= 0) return;
+    const std::size_t count = static_cast<std::size_t>(std::min(k, size_));
+    out.reserve(count);
+    if (key_dim_ == 3)
+        collect_nearest<3>(p, count, out);
+    else
+        collect_nearest<6>(p, count, out);
+    std::sort_heap(out.begin(), out.end(), closer);
+}
+
+std::int32_t Adt::max_depth() const {
+    if (root_ < 0) return 0;
+    std::int32_t deepest = 0;
+    std::vector<std::pair<std::int32_t, std::int32_t>> stack{{root_, 1}};
+    while (!stack.empty()) {
+        const auto [node, depth] = stack.back();
+        stack.pop_back();
+        deepest = std::max(deepest, depth);
+        for (const std::int32_t child : nodes_[static_cast<std::size_t>(node)].child)
+            if (child >= 0) stack.emplace_back(child, depth + 1);
+    }
+    return deepest;
+}
+
+}  // namespace frontmesh::core
