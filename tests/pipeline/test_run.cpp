@@ -100,7 +100,7 @@ TEST_CASE("bad input: one clear line, exit code 2, nothing written", "[pipeline]
     CHECK(run_frontmesh("validate typo.yaml", dir).exit_code == 2);
 }
 
-TEST_CASE("--help, --version and keys", "[pipeline]") {
+TEST_CASE("help, version and keys commands", "[pipeline]") {
     const std::string dir = fixtures::temp_dir("run_help");
     const auto help = run_frontmesh("--help", dir);
     CHECK(help.exit_code == 0);
