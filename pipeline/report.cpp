@@ -76,7 +76,7 @@ std::string json_number(double value) {
     return s.str();
 }
 
-std::string surface_figures_json(const core::SurfaceNetwork& surface) {
+SurfaceReport surface_report(const core::SurfaceNetwork& surface) {
     const SurfaceFigures f = figures(surface);
     std::ostringstream s;
     s << "{\"vertices\": " << f.vertices << ", \"faces\": " << f.faces << ", \"regions\": " << f.regions
@@ -93,17 +93,12 @@ std::string surface_figures_json(const core::SurfaceNetwork& surface) {
           << "}";
     }
     s << "]}";
-    return s.str();
-}
-
-std::string surface_figures_line(const core::SurfaceNetwork& surface) {
-    const SurfaceFigures f = figures(surface);
     char buf[320];
     std::snprintf(buf, sizeof buf,
                   "%zu vertices, %zu faces, %zu regions (%zu closed, %zu oriented), eta mean %.3f max %.3f, "
                   "min angle %.1f deg",
                   f.vertices, f.faces, f.regions, f.closed, f.oriented, f.eta_mean, f.eta_max, f.min_angle_min);
-    return buf;
+    return {s.str(), buf};
 }
 
 }  // namespace frontmesh::pipeline

@@ -7,12 +7,14 @@
 
 namespace frontmesh::pipeline {
 
-/// Figures of a surface network as a JSON object: counts, per-region closedness,
-/// orientation and volume, triangle quality (eta of Eq. 2, minimum angles).
-std::string surface_figures_json(const core::SurfaceNetwork& surface);
-
-/// One human line of the same figures, for the log.
-std::string surface_figures_line(const core::SurfaceNetwork& surface);
+/// Figures of a surface network, computed once: `json` is an object with counts,
+/// per-region closedness, orientation and volume, and triangle quality (eta of Eq. 2,
+/// minimum angles); `line` is one human line of the same figures, for the log.
+struct SurfaceReport {
+    std::string json;
+    std::string line;
+};
+SurfaceReport surface_report(const core::SurfaceNetwork& surface);
 
 /// JSON string literal of `text` (quoted, escaped).
 std::string json_quote(const std::string& text);

@@ -357,26 +357,24 @@ std::string run_recipe(const Recipe& recipe, const RunOptions& options) {
         part << "},\n     \"warnings\": [";
         for (std::size_t w = 0; w < ctx.warnings().size(); ++w)
             part << (w ? ", " : "") << json_quote(ctx.warnings()[w]);
-        part << "],\n     \"quality\": " << surface_figures_json(surface) << "}";
+        const SurfaceReport report = surface_report(surface);
+        part << "],\n     \"quality\": " << report.json << "}";
         io::write_text_atomically(out.with_ext(stage, ".json").string(), part.str());
         io::write_text_atomically(out.with_ext(stage, ".hash").string(), hashes[i] + "\n");
         char buf[120];
         std::snprintf(buf, sizeof buf, "%s done in %.2f s, peak memory %.0f MB: ", stage.name.c_str(), wall,
                       peak_rss_mb());
-        info(buf + surface_figures_line(surface));
+        info(buf + report.line);
     }
 
-    // The final result: the last surface (mesh.vtu once the volume stages exist).
+    // The final result: the last surface (mesh.vtu once the volume stages exist), a copy of
+    // the last stage's checkpoint.
     const fs::path result = out.dir / "surface.vtu";
     prepare_folder();
-    if (first <= last) {
-        io::write_surface_vtu(std::get<core::SurfaceNetwork>(data), result.string(),
-                              {{"frame", frame}, {"stage", stages[last].name}, {"frontmesh_version", FRONTMESH_VERSION}});
-    } else if (!fs::exists(result) || read_text(out.with_ext(stages[last], ".hash")) != hashes[last] + "\n" ||
-               fs::last_write_time(result) < fs::last_write_time(out.checkpoint(stages[last]))) {
-        io::write_surface_vtu(read_checkpoint_surface(out.checkpoint(stages[last])), result.string(),
-                              {{"frame", frame}, {"stage", stages[last].name}, {"frontmesh_version", FRONTMESH_VERSION}});
-    }
+    const fs::path last_checkpoint = out.checkpoint(stages[last]);
+    io::write_atomically(result.string(), [&](const std::string& temp) {
+        fs::copy_file(last_checkpoint, temp, fs::copy_options::overwrite_existing);
+    });
     write_pvd();
     write_summary("ok", "");
     return result.string();
