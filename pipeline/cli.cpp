@@ -12,12 +12,9 @@
 
 #include "pipeline/cohort.h"
 #include "pipeline/core/error.h"
+#include "pipeline/version.h"
 #include "pipeline/recipe.h"
 #include "pipeline/runner.h"
-
-#ifndef FRONTMESH_VERSION
-#define FRONTMESH_VERSION "0.0.0"
-#endif
 
 namespace frontmesh::pipeline {
 namespace {
@@ -140,7 +137,7 @@ int run_cli(int argc, char** argv) {
             return 0;
         }
         if (!std::strcmp(argv[i], "--version")) {
-            std::cout << "frontmesh " << FRONTMESH_VERSION << '\n';
+            std::cout << "frontmesh " << version() << '\n';
             return 0;
         }
     }

@@ -21,12 +21,9 @@
 
 #include "io/atomic_file.h"
 #include "pipeline/core/error.h"
+#include "pipeline/version.h"
 #include "pipeline/recipe.h"
 #include "pipeline/report.h"
-
-#ifndef FRONTMESH_VERSION
-#define FRONTMESH_VERSION "0.0.0"
-#endif
 
 namespace frontmesh::pipeline {
 namespace {
@@ -364,7 +361,7 @@ void write_summaries(const CohortResult& result, const Manifest& manifest, const
     io::write_text_atomically((fs::path(result.root) / kSummaryCsv).string(), csv.str());
 
     std::ostringstream json;
-    json << "{\n  \"frontmesh_version\": " << json_quote(FRONTMESH_VERSION) << ",\n  \"manifest\": "
+    json << "{\n  \"frontmesh_version\": " << json_quote(version()) << ",\n  \"manifest\": "
          << json_quote(manifest.path) << ",\n  \"recipe\": " << json_quote(recipe) << ",\n  \"root\": "
          << json_quote(result.root) << ",\n  \"jobs\": " << jobs << ",\n  \"counts\": {\"ok\": "
          << result.count(SubjectStatus::Ok) << ", \"skipped\": " << result.count(SubjectStatus::Skipped)

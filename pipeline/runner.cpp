@@ -16,11 +16,8 @@
 #include "io/image_reader.h"
 #include "io/mesh_io.h"
 #include "pipeline/core/error.h"
+#include "pipeline/version.h"
 #include "pipeline/report.h"
-
-#ifndef FRONTMESH_VERSION
-#define FRONTMESH_VERSION "0.0.0"
-#endif
 
 namespace frontmesh::pipeline {
 namespace {
@@ -64,7 +61,7 @@ struct Hash {
 // The bytes of the input: a file, every file of a folder, or the files a pattern names.
 std::string input_hash(const Recipe& recipe) {
     Hash h;
-    h.add(std::string("frontmesh ") + FRONTMESH_VERSION);
+    h.add(std::string("frontmesh ") + version());
     h.add(canonical_params(recipe, "input"));
     const std::string source = recipe.input.image.empty() ? recipe.input.surface : recipe.input.image;
     std::vector<fs::path> files;
@@ -275,7 +272,7 @@ std::string run_recipe(const Recipe& recipe, const RunOptions& options) {
     };
     auto write_summary = [&](const std::string& status, const std::string& error) {
         std::ostringstream s;
-        s << "{\n  \"frontmesh_version\": " << json_quote(FRONTMESH_VERSION) << ",\n  \"recipe\": "
+        s << "{\n  \"frontmesh_version\": " << json_quote(version()) << ",\n  \"recipe\": "
           << json_quote(recipe.path) << ",\n  \"input\": "
           << json_quote(surface_input ? recipe.input.surface : recipe.input.image) << ",\n  \"frame\": "
           << json_quote(frame) << ",\n  \"status\": " << json_quote(status) << ",\n  \"error\": "
@@ -343,7 +340,7 @@ std::string run_recipe(const Recipe& recipe, const RunOptions& options) {
 
         prepare_folder();
         io::write_surface_vtu(surface, out.checkpoint(stage).string(),
-                              {{"frame", frame}, {"stage", stage.name}, {"frontmesh_version", FRONTMESH_VERSION}});
+                              {{"frame", frame}, {"stage", stage.name}, {"frontmesh_version", version()}});
         std::ostringstream part;
         part << "{\"name\": " << json_quote(stage.name) << ", \"status\": \"ran\", \"wall_s\": " << json_number(wall)
              << ", \"peak_rss_mb\": " << json_number(peak_rss_mb()) << ", \"checkpoint\": "
