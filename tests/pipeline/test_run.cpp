@@ -167,3 +167,20 @@ TEST_CASE("checkpoints are identical byte for byte across runs and thread counts
     CHECK(slurp(fs::path(dir) / "out/checkpoints/02-repair.vtu") == repair1);
     CHECK(repair1.size() > 10000);
 }
+
+TEST_CASE("a surface input enters at repair and keeps its regions", "[pipeline]") {
+    const std::string dir = phantom_run_dir("run_surface_input");
+    REQUIRE(run_frontmesh("run recipe.yaml --quiet", dir).exit_code == 0);
+    write_file(dir + "/surface.yaml", "input:\n  surface: out/surface.vtu\noutput:\n  dir: again\n");
+    const auto r = run_frontmesh("run surface.yaml", dir);
+    INFO(r.err);
+    REQUIRE(r.exit_code == 0);
+    CHECK_THAT(r.err, Catch::Contains("reading surface") && Catch::Contains("[2/2] repair"));
+    CHECK_FALSE(fs::exists(fs::path(dir) / "again/checkpoints/01-extract.vtu"));
+    CHECK_THAT(slurp(fs::path(dir) / "again/summary.json"), Catch::Contains("\"regions_closed\": 3"));
+    CHECK(run_frontmesh("run surface.yaml --quiet --from extract", dir).exit_code == 2);
+    write_file(dir + "/broken.off", "OFF\n4 1 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n4 0 1 2 3\n");
+    const auto bad = run_frontmesh("run surface.yaml --quiet --set input.surface=broken.off", dir);
+    CHECK(bad.exit_code == 2);
+    CHECK_THAT(bad.err, Catch::Contains("broken.off"));
+}
