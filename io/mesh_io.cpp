@@ -29,6 +29,7 @@
 #include <vtkIntArray.h>
 #include <vtkNew.h>
 #include <vtkPLYReader.h>
+#include <vtkPointData.h>
 #include <vtkPoints.h>
 #include <vtkPolyData.h>
 #include <vtkSTLReader.h>
@@ -268,23 +269,23 @@ Label region_value(vtkDataArray* array, vtkIdType cell, Label fallback, const ch
     return static_cast<Label>(v);
 }
 
-void copy_points(vtkPointSet* data, const std::string& path, SurfaceNetwork& surface) {
+void copy_points(vtkPointSet* data, const std::string& path, std::vector<double>& xyz) {
     const vtkIdType n = data->GetNumberOfPoints();
     if (n > std::numeric_limits<std::int32_t>::max())
         FM_THROW(InputError, quoted(path) + ": too many points (" + std::to_string(n) + ")");
-    surface.xyz.resize(3 * static_cast<std::size_t>(n));
+    xyz.resize(3 * static_cast<std::size_t>(n));
     if (n == 0) return;
     vtkDataArray* coords = data->GetPoints()->GetData();
     if (auto* doubles = vtkDoubleArray::SafeDownCast(coords);
         doubles != nullptr && doubles->GetNumberOfComponents() == 3) {
         const double* p = doubles->GetPointer(0);
-        std::copy(p, p + 3 * n, surface.xyz.begin());
+        std::copy(p, p + 3 * n, xyz.begin());
     } else {
-        for (vtkIdType i = 0; i < n; ++i) coords->GetTuple(i, &surface.xyz[3 * i]);
+        for (vtkIdType i = 0; i < n; ++i) coords->GetTuple(i, &xyz[3 * i]);
     }
     for (vtkIdType i = 0; i < n; ++i)
         for (int k = 0; k < 3; ++k)
-            if (!std::isfinite(surface.xyz[3 * i + k]))
+            if (!std::isfinite(xyz[3 * i + k]))
                 FM_THROW(InputError, quoted(path) + ": point " + std::to_string(i) +
                                          " has a non-finite coordinate");
 }
@@ -335,7 +336,7 @@ void copy_field_strings(vtkDataObject* data, FieldStrings* fields) {
 
 SurfaceNetwork surface_from_grid(vtkUnstructuredGrid* grid, const std::string& path) {
     SurfaceNetwork surface;
-    copy_points(grid, path, surface);
+    copy_points(grid, path, surface.xyz);
     const vtkIdType n_cells = grid->GetNumberOfCells();
     if (n_cells == 0) return surface;
     TriangleSink sink{path, surface, region_array(grid, "region_in", path),
@@ -360,7 +361,7 @@ SurfaceNetwork surface_from_grid(vtkUnstructuredGrid* grid, const std::string& p
 
 SurfaceNetwork surface_from_polydata(vtkPolyData* poly, const std::string& path) {
     SurfaceNetwork surface;
-    copy_points(poly, path, surface);
+    copy_points(poly, path, surface.xyz);
     // vtkPolyData numbers its cells verts, then lines, then polys, then strips.
     const vtkIdType n_verts = poly->GetNumberOfVerts();
     const vtkIdType n_lines = poly->GetNumberOfLines();
@@ -631,6 +632,208 @@ void write_pvd(const std::string& path,
             << "\"/>\n";
     xml << "  </Collection>\n</VTKFile>\n";
     write_text_atomically(path, xml.str());
+}
+
+
+// ---------------------------------------------------------------------------------------
+// Tetrahedral meshes
+
+namespace {
+
+template <typename ArrayT, typename T>
+void add_field_values(vtkFieldData* fd, const char* name, int components, const T* values,
+                      std::size_t tuples) {
+    vtkNew<ArrayT> a;
+    a->SetName(name);
+    a->SetNumberOfComponents(components);
+    a->SetNumberOfTuples(static_cast<vtkIdType>(tuples));
+    std::copy(values, values + components * tuples, a->GetPointer(0));
+    fd->AddArray(a);
+}
+
+vtkSmartPointer<vtkUnstructuredGrid> tet_grid(const core::TetMesh& mesh,
+                                              const FieldStrings& fields) {
+    const std::size_t nn = mesh.node_count();
+    const std::size_t nt = mesh.tet_count();
+    const std::size_t nf = mesh.face_count();
+    FM_CHECK(mesh.region.size() == nt);
+    FM_CHECK(mesh.region_in.size() == nf && mesh.region_out.size() == nf);
+    FM_CHECK(mesh.level.empty() || mesh.level.size() == nn);
+
+    auto grid = vtkSmartPointer<vtkUnstructuredGrid>::New();
+    vtkNew<vtkDoubleArray> coords;
+    coords->SetNumberOfComponents(3);
+    coords->SetNumberOfTuples(static_cast<vtkIdType>(nn));
+    std::copy(mesh.xyz.begin(), mesh.xyz.end(), coords->GetPointer(0));
+    vtkNew<vtkPoints> points;
+    points->SetData(coords);
+    grid->SetPoints(points);
+
+    vtkNew<vtkIdTypeArray> offsets;
+    vtkNew<vtkIdTypeArray> connectivity;
+    offsets->SetNumberOfTuples(static_cast<vtkIdType>(nt + 1));
+    connectivity->SetNumberOfTuples(static_cast<vtkIdType>(4 * nt));
+    vtkIdType* off = offsets->GetPointer(0);
+    vtkIdType* conn = connectivity->GetPointer(0);
+    const auto node_limit = static_cast<std::int64_t>(nn);
+    for (std::size_t t = 0; t < nt; ++t) {
+        for (int k = 0; k < 4; ++k) {
+            FM_CHECK(mesh.tets[t][k] >= 0 && mesh.tets[t][k] < node_limit);
+            conn[4 * t + k] = mesh.tets[t][k];
+        }
+        off[t] = static_cast<vtkIdType>(4 * t);
+    }
+    off[nt] = static_cast<vtkIdType>(4 * nt);
+    vtkNew<vtkCellArray> cells;
+    cells->SetData(offsets, connectivity);
+    grid->SetCells(VTK_TETRA, cells);
+
+    vtkNew<vtkIntArray> region;
+    region->SetName("region");
+    region->SetNumberOfTuples(static_cast<vtkIdType>(nt));
+    std::copy(mesh.region.begin(), mesh.region.end(), region->GetPointer(0));
+    vtkNew<vtkDoubleArray> skewness;
+    vtkNew<vtkDoubleArray> min_dihedral;
+    skewness->SetName("skewness");
+    min_dihedral->SetName("min_dihedral");
+    skewness->SetNumberOfTuples(static_cast<vtkIdType>(nt));
+    min_dihedral->SetNumberOfTuples(static_cast<vtkIdType>(nt));
+    double* skew_values = skewness->GetPointer(0);
+    double* dihedral_values = min_dihedral->GetPointer(0);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nt, 4096),
+                      [&](const tbb::blocked_range<std::size_t>& range) {
+                          for (std::size_t t = range.begin(); t != range.end(); ++t) {
+                              const auto& c = mesh.tets[t];
+                              const Eigen::Vector3d a = mesh.point(c[0]), b = mesh.point(c[1]),
+                                                    p = mesh.point(c[2]), d = mesh.point(c[3]);
+                              skew_values[t] = core::tet_skewness(a, b, p, d);
+                              dihedral_values[t] = core::tet_min_dihedral_deg(a, b, p, d);
+                          }
+                      });
+    vtkCellData* cell_data = grid->GetCellData();
+    cell_data->AddArray(region);
+    cell_data->AddArray(skewness);
+    cell_data->AddArray(min_dihedral);
+
+    if (!mesh.level.empty()) {
+        vtkNew<vtkIntArray> level;
+        level->SetName("level");
+        level->SetNumberOfTuples(static_cast<vtkIdType>(nn));
+        std::copy(mesh.level.begin(), mesh.level.end(), level->GetPointer(0));
+        grid->GetPointData()->AddArray(level);
+    }
+
+    vtkFieldData* fd = grid->GetFieldData();
+    add_field_values<vtkIntArray>(fd, "boundary_faces", 3, mesh.faces.data()->data(), nf);
+    add_field_values<vtkIntArray>(fd, "boundary_region_in", 1, mesh.region_in.data(), nf);
+    add_field_values<vtkIntArray>(fd, "boundary_region_out", 1, mesh.region_out.data(), nf);
+    add_field_values<vtkIntArray>(fd, "surface_vertices", 1, &mesh.surface_vertices, 1);
+    for (const auto& [key, value] : fields) {
+        vtkNew<vtkStringArray> entry;
+        entry->SetName(key.c_str());
+        entry->InsertNextValue(value);
+        fd->AddArray(entry);
+    }
+    return grid;
+}
+
+// An int32 field-data array of `components` per tuple, or nullptr when absent.
+vtkIntArray* int_field(vtkFieldData* fd, const char* name, int components,
+                       const std::string& path) {
+    if (fd == nullptr) return nullptr;
+    vtkAbstractArray* a = fd->GetAbstractArray(name);
+    if (a == nullptr) return nullptr;
+    auto* ints = vtkIntArray::SafeDownCast(a);
+    if (ints == nullptr || ints->GetNumberOfComponents() != components)
+        FM_THROW(InputError, quoted(path) + ": field array '" + name + "' is not int32 x" +
+                                 std::to_string(components));
+    return ints;
+}
+
+}  // namespace
+
+void write_tet_mesh_vtu(const core::TetMesh& mesh, const std::string& path,
+                        const FieldStrings& fields) {
+    const vtkSmartPointer<vtkUnstructuredGrid> grid = tet_grid(mesh, fields);
+    write_atomically(path, [&](const std::string& temp) { write_grid(grid, path, temp); });
+}
+
+core::TetMesh read_tet_mesh(const std::string& path, FieldStrings* fields) {
+    std::error_code ec;
+    if (!fs::exists(path, ec)) FM_THROW(InputError, quoted(path) + " does not exist");
+    if (fields != nullptr) fields->clear();
+    const std::string ext = lower(fs::path(path).extension().string());
+    if (ext != ".vtu")
+        FM_THROW(InputError, quoted(path) + ": unknown tetrahedral mesh format '" + ext +
+                                 "' (supported: .vtu)");
+    auto reader = run_reader<vtkXMLUnstructuredGridReader>(path, "VTK XML unstructured grid");
+    vtkUnstructuredGrid* grid = reader->GetOutput();
+    copy_field_strings(grid, fields);
+
+    core::TetMesh mesh;
+    copy_points(grid, path, mesh.xyz);
+    vtkDataArray* region = region_array(grid, "region", path);
+    vtkUnsignedCharArray* types = grid->GetCellTypesArray();
+    const auto n_nodes = static_cast<vtkIdType>(mesh.node_count());
+    auto it = vtk::TakeSmartPointer(grid->GetCells()->NewIterator());
+    for (it->GoToFirstCell(); !it->IsDoneWithTraversal(); it->GoToNextCell()) {
+        const vtkIdType cell = it->GetCurrentCellId();
+        vtkIdType npts = 0;
+        const vtkIdType* pts = nullptr;
+        it->GetCurrentCell(npts, pts);
+        const int type = types->GetValue(cell);
+        if (type != VTK_TETRA || npts != 4)
+            FM_THROW(InputError, quoted(path) + ": cell " + std::to_string(cell) + " is " +
+                                     cell_type_name(type) + "; only tetrahedra are supported");
+        std::array<std::int32_t, 4> t{};
+        for (int k = 0; k < 4; ++k) {
+            if (pts[k] < 0 || pts[k] >= n_nodes)
+                FM_THROW(InputError, quoted(path) + ": cell " + std::to_string(cell) +
+                                         " refers to missing point " + std::to_string(pts[k]));
+            t[k] = static_cast<std::int32_t>(pts[k]);
+        }
+        if (core::tet_signed_volume(mesh.point(t[0]), mesh.point(t[1]), mesh.point(t[2]),
+                                    mesh.point(t[3])) < 0.0)
+            std::swap(t[0], t[1]);
+        mesh.add_tet(t[0], t[1], t[2], t[3], region_value(region, cell, 1, "region", path));
+    }
+    if (mesh.tet_count() == 0) FM_THROW(InputError, quoted(path) + " contains no tetrahedra");
+
+    if (auto* level = vtkIntArray::SafeDownCast(grid->GetPointData()->GetAbstractArray("level"));
+        level != nullptr && level->GetNumberOfTuples() == n_nodes &&
+        level->GetNumberOfComponents() == 1)
+        mesh.level.assign(level->GetPointer(0), level->GetPointer(0) + n_nodes);
+
+    vtkFieldData* fd = grid->GetFieldData();
+    vtkIntArray* faces = int_field(fd, "boundary_faces", 3, path);
+    vtkIntArray* in = int_field(fd, "boundary_region_in", 1, path);
+    vtkIntArray* out = int_field(fd, "boundary_region_out", 1, path);
+    vtkIntArray* sv = int_field(fd, "surface_vertices", 1, path);
+    if (faces != nullptr && in != nullptr && out != nullptr && sv != nullptr) {
+        const vtkIdType nf = faces->GetNumberOfTuples();
+        if (in->GetNumberOfTuples() != nf || out->GetNumberOfTuples() != nf ||
+            sv->GetNumberOfTuples() != 1)
+            FM_THROW(InputError, quoted(path) + ": boundary field arrays differ in length");
+        mesh.surface_vertices = sv->GetValue(0);
+        if (mesh.surface_vertices < 0 || mesh.surface_vertices > n_nodes)
+            FM_THROW(InputError, quoted(path) + ": surface_vertices out of range");
+        mesh.faces.resize(static_cast<std::size_t>(nf));
+        for (vtkIdType f = 0; f < nf; ++f)
+            for (int k = 0; k < 3; ++k) {
+                const int v = faces->GetValue(3 * f + k);
+                if (v < 0 || v >= mesh.surface_vertices)
+                    FM_THROW(InputError, quoted(path) + ": boundary face " + std::to_string(f) +
+                                             " refers to node " + std::to_string(v) +
+                                             " outside the surface nodes");
+                mesh.faces[static_cast<std::size_t>(f)][k] = v;
+            }
+        mesh.region_in.assign(in->GetPointer(0), in->GetPointer(0) + nf);
+        mesh.region_out.assign(out->GetPointer(0), out->GetPointer(0) + nf);
+    } else {
+        core::derive_boundary_faces(mesh);
+        mesh.surface_vertices = static_cast<std::int32_t>(mesh.node_count());
+    }
+    return mesh;
 }
 
 }  // namespace frontmesh::io

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "pipeline/core/surface_network.h"
+#include "pipeline/core/tet_mesh.h"
 
 namespace frontmesh::io {
 
@@ -26,6 +27,22 @@ void write_surface_vtu(const core::SurfaceNetwork& surface, const std::string& p
 /// points are kept as they are (repair merges them). Throws InputError naming the file
 /// when it is missing, of an unknown format, empty, or has non-triangle cells.
 core::SurfaceNetwork read_surface(const std::string& path, FieldStrings* fields = nullptr);
+
+/// Writes `mesh` as a VTK XML unstructured grid of tetrahedra (binary, zlib), atomically.
+/// Cell arrays: `region` (int32), `skewness` (Eq. 1) and `min_dihedral` (degrees) (float64);
+/// point array `level` (int32) when the mesh has one. The boundary and interface triangles
+/// travel in field data (`boundary_faces` int32 x3, `boundary_region_in`,
+/// `boundary_region_out`, `surface_vertices`), so the file holds only tets for ParaView and
+/// solvers while read_tet_mesh() restores the whole TetMesh. Field data: one string array
+/// per entry of `fields`. Throws IoError naming `path` on failure.
+void write_tet_mesh_vtu(const core::TetMesh& mesh, const std::string& path,
+                        const FieldStrings& fields);
+
+/// Reads a tetrahedral mesh from .vtu (as written by write_tet_mesh_vtu, or any VTU of tets:
+/// region from a cell array `region` when present, else 1; without boundary field data the
+/// boundary faces are derived: faces of one tet, or between tets of different regions).
+/// Tets of negative volume are reordered. Throws InputError naming the file on bad input.
+core::TetMesh read_tet_mesh(const std::string& path, FieldStrings* fields = nullptr);
 
 /// Writes a ParaView collection (.pvd) listing `entries` as (file, name) pairs, in order:
 /// `file` is relative to the folder of `path`, `name` labels the dataset. Entry i gets
