@@ -1,0 +1,121 @@
+#!/bin/sh
+# Benchmark of the tetra stage (issue 4) against Debian's tetgen on the very same closed surface.
+# Not part of the test suite.
+#
+# usage: tests/bench/tetra_vs_tetgen.sh SURFACE.vtu [ALPHA] [WORKDIR]
+#   SURFACE.vtu  closed, oriented surface (e.g. a remesh or repair checkpoint)
+#   ALPHA        tetra.stretching (default 1.15)
+#   WORKDIR      scratch folder (default /tmp/tetra_vs_tetgen)
+# environment: FRONTMESH (the frontmesh executable; default build-main's), TETGEN_SWITCHES
+#   (default -pYq1.3), THREADS (frontmesh --threads, default 1: the issue's one-core figure)
+#
+# Runs `frontmesh run RECIPE --from tetra --until tetra` with
+#   {input: {surface: SURFACE}, output: {dir: WORKDIR/frontmesh}, tetra: {stretching: ALPHA}}
+# and `tetgen $TETGEN_SWITCHES` on the surface converted to .smesh, both under /usr/bin/time -v,
+# checks both results with meshcheck.py --json and prints wall time, peak RSS, tets, tets/s,
+# quality and the frontmesh/tetgen ratios.
+set -eu
+
+SURFACE=$(realpath "${1:?usage: $0 SURFACE.vtu [ALPHA] [WORKDIR]}")
+ALPHA=${2:-1.15}
+WORK=${3:-/tmp/tetra_vs_tetgen}
+HERE=$(cd "$(dirname "$0")" && pwd)
+ROOT=$(cd "$HERE/../.." && pwd)
+FRONTMESH=${FRONTMESH:-$ROOT/build-main/pipeline/frontmesh}
+TETGEN_SWITCHES=${TETGEN_SWITCHES:--pYq1.3}
+MESHCHECK=${MESHCHECK:-/work/shared/tools/meshcheck.py}
+PY=/usr/bin/python3
+THREADS=${THREADS:-1}
+
+rm -rf "$WORK"
+mkdir -p "$WORK/frontmesh" "$WORK/tetgen"
+
+# ---- frontmesh tetra --------------------------------------------------------------------
+cat > "$WORK/recipe.yaml" <<EOF
+input:
+  surface: $SURFACE
+output:
+  dir: $WORK/frontmesh
+tetra:
+  stretching: $ALPHA
+EOF
+/usr/bin/time -v "$FRONTMESH" run "$WORK/recipe.yaml" --from tetra --until tetra --threads "$THREADS" \
+    > "$WORK/frontmesh/log.txt" 2> "$WORK/frontmesh/time.txt" || {
+    echo "frontmesh failed:"; tail -20 "$WORK/frontmesh/time.txt"; exit 1; }
+FM_MESH=$WORK/frontmesh/mesh.vtu
+[ -f "$FM_MESH" ] || FM_MESH=$(ls "$WORK"/frontmesh/checkpoints/*-tetra.vtu | head -1)
+
+# ---- tetgen on the same surface -----------------------------------------------------------
+# (read with meshcheck's own reader: meshio cannot read VTK's raw appended data)
+$PY - "$SURFACE" "$WORK/tetgen/surf.smesh" "$(dirname "$MESHCHECK")" <<'EOF'
+import sys
+sys.path.insert(0, sys.argv[3])
+from meshcheck import read_mesh
+P, _, tris, _, _ = read_mesh(sys.argv[1])
+with open(sys.argv[2], "w") as f:
+    f.write("%d 3 0 0\n" % len(P))
+    for i, p in enumerate(P):
+        f.write("%d %.17g %.17g %.17g\n" % (i, p[0], p[1], p[2]))
+    f.write("%d 0\n" % len(tris))
+    for a, b, c in tris:
+        f.write("3 %d %d %d\n" % (a, b, c))
+    f.write("0\n0\n")
+EOF
+( cd "$WORK/tetgen" && /usr/bin/time -v tetgen $TETGEN_SWITCHES -Q surf.smesh \
+    > log.txt 2> time.txt ) || { echo "tetgen failed:"; tail -20 "$WORK/tetgen/time.txt"; exit 1; }
+$PY - "$WORK/tetgen/surf.1" "$WORK/tetgen/mesh.vtu" <<'EOF'
+import sys
+import meshio
+import numpy as np
+base = sys.argv[1]
+def rows(path):
+    with open(path) as f:
+        lines = [l.split("#")[0].split() for l in f]
+    lines = [l for l in lines if l]
+    n = int(lines[0][0])
+    return lines[1:1 + n]
+nodes = rows(base + ".node")
+first = int(nodes[0][0])
+P = np.array([[float(v) for v in r[1:4]] for r in nodes])
+T = np.array([[int(v) - first for v in r[1:5]] for r in rows(base + ".ele")], dtype=np.int64)
+meshio.write(sys.argv[2], meshio.Mesh(P, [("tetra", T)]))
+EOF
+
+# ---- referee ------------------------------------------------------------------------------
+$PY "$MESHCHECK" "$FM_MESH" --surface "$SURFACE" --strict-surface --json "$WORK/frontmesh/check.json" \
+    > "$WORK/frontmesh/check.txt" 2>&1 && FM_OK=yes || FM_OK=NO
+$PY "$MESHCHECK" "$WORK/tetgen/mesh.vtu" --surface "$SURFACE" --strict-surface \
+    --json "$WORK/tetgen/check.json" > "$WORK/tetgen/check.txt" 2>&1 && TG_OK=yes || TG_OK=NO
+
+$PY - "$WORK" "$FM_OK" "$TG_OK" "$ALPHA" "$TETGEN_SWITCHES" <<'EOF'
+import json, re, sys
+work, fm_ok, tg_ok, alpha, sw = sys.argv[1:6]
+def timing(path):
+    t = open(path).read()
+    wall = re.search(r"Elapsed \(wall clock\) time \(h:mm:ss or m:ss\): (\S+)", t).group(1)
+    s = 0.0
+    for part in wall.split(":"):
+        s = s * 60 + float(part)
+    rss = int(re.search(r"Maximum resident set size \(kbytes\): (\d+)", t).group(1)) / 1024.0
+    return s, rss
+rows = {}
+for name, ok in (("frontmesh", fm_ok), ("tetgen", tg_ok)):
+    wall, rss = timing("%s/%s/time.txt" % (work, name))
+    c = json.load(open("%s/%s/check.json" % (work, name)))
+    rows[name] = dict(wall=wall, rss=rss, tets=c["n_tets"], nodes=c["n_nodes"], ok=ok,
+                      bnd=c["boundary_faces"], skew08=100 * c["skewness"]["frac_gt_0_8"],
+                      skewmean=c["skewness"]["mean"], dmin=c["dihedral"]["min_deg"],
+                      d10=100 * c["dihedral"]["frac_tets_min_lt_10"])
+print("surface: %s boundary triangles; frontmesh tetra alpha %s vs tetgen %s" % (rows["frontmesh"]["bnd"], alpha, sw))
+print("%-10s %8s %9s %10s %9s %10s %8s %9s %9s %8s %8s" % ("tool", "wall s", "peak MB", "tets", "nodes",
+      "tets/s", "skew>.8%", "skew mean", "min dih", "<10deg%", "valid"))
+for name, r in rows.items():
+    print("%-10s %8.2f %9.0f %10d %9d %10.0f %8.3f %9.3f %9.2f %8.3f %8s" % (
+        name, r["wall"], r["rss"], r["tets"], r["nodes"], r["tets"] / max(r["wall"], 1e-9), r["skew08"],
+        r["skewmean"], r["dmin"], r["d10"], r["ok"]))
+f, t = rows["frontmesh"], rows["tetgen"]
+print("ratios frontmesh/tetgen: wall %.2f, peak memory %.2f, tets %.2f, tets/s %.2f" % (
+    f["wall"] / t["wall"], f["rss"] / t["rss"], f["tets"] / t["tets"],
+    (f["tets"] / f["wall"]) / (t["tets"] / t["wall"])))
+print("frontmesh per boundary triangle: %.2f tets, %.2f nodes" % (f["tets"] / f["bnd"], f["nodes"] / f["bnd"]))
+EOF

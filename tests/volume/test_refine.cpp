@@ -1,0 +1,305 @@
+// Refine stage (§3.3): each local operation on hand-made configurations, then whole meshes
+// made by tetgen (poor input: no quality bound) checked with check_tet_mesh and meshcheck.
+
+#include <algorithm>
+#include <cstdlib>
+#include <fstream>
+#include <random>
+
+#include <catch2/catch.hpp>
+#include <tbb/global_control.h>
+
+#include "io/mesh_io.h"
+#include "pipeline/core/error.h"
+#include "pipeline/core/quality.h"
+#include "tests/fixtures/phantoms.h"
+#include "tests/volume/refine_fixtures.h"
+#include "volume/mesh_check.h"
+#include "volume/refine.h"
+#include "volume/refine_ops.h"
+#include "volume/tet_topology.h"
+
+using namespace frontmesh;
+using volume::Objective;
+using volume::RefineOps;
+using volume::RefineParams;
+using volume::Tet;
+using volume::TetTopology;
+
+namespace {
+
+std::vector<Tet> canonical(const core::TetMesh& m) {
+    // Each oriented tet as the smallest of its 12 even permutations, then sorted.
+    static constexpr int kEven[12][4] = {{0, 1, 2, 3}, {0, 2, 3, 1}, {0, 3, 1, 2}, {1, 0, 3, 2},
+                                         {1, 2, 0, 3}, {1, 3, 2, 0}, {2, 0, 1, 3}, {2, 1, 3, 0},
+                                         {2, 3, 0, 1}, {3, 0, 2, 1}, {3, 1, 0, 2}, {3, 2, 1, 0}};
+    std::vector<Tet> out;
+    for (const Tet& t : m.tets) {
+        Tet best = t;
+        for (const auto& p : kEven) {
+            const Tet q{t[static_cast<std::size_t>(p[0])], t[static_cast<std::size_t>(p[1])],
+                        t[static_cast<std::size_t>(p[2])], t[static_cast<std::size_t>(p[3])]};
+            best = std::min(best, q);
+        }
+        out.push_back(best);
+    }
+    std::sort(out.begin(), out.end());
+    return out;
+}
+
+double max_skewness(const core::TetMesh& m) { return volume::tet_quality(m).max_skewness; }
+
+bool same_surface(const core::TetMesh& a, const core::TetMesh& b) {
+    if (a.surface_vertices != b.surface_vertices || a.faces != b.faces || a.region_in != b.region_in ||
+        a.region_out != b.region_out)
+        return false;
+    return std::equal(a.xyz.begin(), a.xyz.begin() + 3 * a.surface_vertices, b.xyz.begin());
+}
+
+}  // namespace
+
+TEST_CASE("A 2-3 flip then a 3-2 flip restore the bipyramid", "[refine]") {
+    const core::TetMesh input = refine_fixtures::bipyramid();
+    REQUIRE(volume::check_tet_mesh(input).valid());
+    const double volume_before = volume::check_tet_mesh(input).volume;
+    TetTopology topo(input);
+    RefineParams params;
+    RefineOps ops(topo, params);
+    ops.set_unconditional(true);  // the round trip cannot improve quality both ways
+
+    REQUIRE(ops.flip_2_3(0, 3, Objective::Skewness));  // face (0,1,2) opposite node 3
+    CHECK(ops.counts.flips_2_3 == 1);
+    CHECK(topo.alive_tets() == 3);
+    REQUIRE(topo.check());
+    const core::TetMesh three = topo.compact();
+    const auto c3 = volume::check_tet_mesh(three);
+    INFO(c3.summary());
+    CHECK(c3.valid());
+    CHECK(c3.volume == Approx(volume_before).epsilon(1e-12));
+    for (const Tet& t : three.tets) {  // every new tet holds the new edge 3-4
+        CHECK(volume::local_index(t, 3) >= 0);
+        CHECK(volume::local_index(t, 4) >= 0);
+    }
+
+    std::int32_t holder = -1;
+    for (std::int32_t t = 0; t < topo.tet_capacity(); ++t)
+        if (topo.alive(t)) holder = t;
+    REQUIRE(ops.remove_edge(3, 4, holder, Objective::Skewness));
+    CHECK(ops.counts.flips_3_2 == 1);
+    REQUIRE(topo.check());
+    const core::TetMesh two = topo.compact();
+    const auto c2 = volume::check_tet_mesh(two);
+    CHECK(c2.valid());
+    CHECK(c2.volume == Approx(volume_before).epsilon(1e-12));
+    CHECK(canonical(two) == canonical(input));
+}
+
+TEST_CASE("Flips are refused when invalid or not better", "[refine]") {
+    // Apex 4 far to the side: segment 3-4 misses face (0,1,2), a 2-3 flip would invert a tet.
+    core::TetMesh input = refine_fixtures::bipyramid();
+    input.point(4) = Eigen::Vector3d(2.5, 2.0, -0.3);
+    REQUIRE(volume::check_tet_mesh(input).valid());
+    {
+        TetTopology topo(input);
+        RefineOps ops(topo, RefineParams{});
+        ops.set_unconditional(true);
+        CHECK_FALSE(ops.flip_2_3(0, 3, Objective::Skewness));
+        CHECK(topo.compact().tets == input.tets);
+    }
+    // With the quality criterion, the round trip can go one way at most.
+    const core::TetMesh good = refine_fixtures::bipyramid();
+    TetTopology topo(good);
+    RefineOps ops(topo, RefineParams{});
+    const bool forward = ops.flip_2_3(0, 3, Objective::Skewness);
+    if (forward) {
+        CHECK(max_skewness(topo.compact()) < max_skewness(good));
+        for (std::int32_t t = 0; t < topo.tet_capacity(); ++t)
+            if (topo.alive(t)) CHECK_FALSE(ops.remove_edge(3, 4, t, Objective::Skewness));
+    } else {
+        CHECK(topo.compact().tets == good.tets);
+    }
+}
+
+TEST_CASE("Node removal: a node inside a tetrahedron and inside a bipyramid", "[refine]") {
+    SECTION("four tets around the node") {
+        core::TetMesh m;
+        m.add_node({0, 0, 0});
+        m.add_node({1, 0, 0});
+        m.add_node({0, 1, 0});
+        m.add_node({0, 0, 1});
+        refine_fixtures::cone_from(m, {{0, 2, 1}, {0, 1, 3}, {1, 2, 3}, {0, 3, 2}}, {0.2, 0.3, 0.25});
+        REQUIRE(m.tet_count() == 4);
+        REQUIRE(volume::check_tet_mesh(m).valid());
+        TetTopology topo(m);
+        RefineOps ops(topo, RefineParams{});
+        ops.remove_nodes();
+        CHECK(ops.counts.nodes_removed == 1);
+        const core::TetMesh out = topo.compact();
+        const auto c = volume::check_tet_mesh(out);
+        INFO(c.summary());
+        CHECK(c.valid());
+        CHECK(out.tet_count() == 1);
+        CHECK(out.node_count() == 4);
+        CHECK(c.volume == Approx(1.0 / 6.0).epsilon(1e-12));
+    }
+    SECTION("six tets around the node") {
+        const core::TetMesh bp = refine_fixtures::bipyramid();
+        core::TetMesh m;
+        m.xyz = bp.xyz;
+        refine_fixtures::cone_from(m, bp.faces, {0.3, 0.3, 0.05});
+        REQUIRE(m.tet_count() == 6);
+        const auto before = volume::check_tet_mesh(m);
+        REQUIRE(before.valid());
+        TetTopology topo(m);
+        RefineOps ops(topo, RefineParams{});
+        ops.remove_nodes();
+        CHECK(ops.counts.nodes_removed == 1);
+        const core::TetMesh out = topo.compact();
+        const auto c = volume::check_tet_mesh(out);
+        CHECK(c.valid());
+        CHECK((out.tet_count() == 2 || out.tet_count() == 3));
+        CHECK(c.volume == Approx(before.volume).epsilon(1e-12));
+        CHECK(same_surface(out, m));
+    }
+    SECTION("a star too large is kept") {
+        core::TetMesh m = fixtures::cube_tet_mesh(2, 1.0);  // centre node: 24 tets
+        TetTopology topo(m);
+        RefineOps ops(topo, RefineParams{});
+        ops.remove_nodes();
+        CHECK(ops.counts.nodes_removed == 0);
+    }
+}
+
+TEST_CASE("Smoothing moves a displaced node back and never inverts", "[refine]") {
+    core::TetMesh m = fixtures::cube_tet_mesh(2, 1.0);
+    const std::int32_t v = m.surface_vertices;  // the centre (1,1,1)
+    REQUIRE(m.point(v).isApprox(Eigen::Vector3d(1, 1, 1)));
+    m.point(v) = Eigen::Vector3d(1.35, 0.8, 1.3);
+    const auto before = volume::check_tet_mesh(m);
+    REQUIRE(before.valid());
+    TetTopology topo(m);
+    RefineOps ops(topo, RefineParams{});
+    ops.smooth();
+    CHECK(ops.counts.smoothing_moves == 1);
+    const core::TetMesh out = topo.compact();
+    const auto after = volume::check_tet_mesh(out);
+    CHECK(after.valid());
+    CHECK(after.quality.max_skewness <= before.quality.max_skewness);
+    CHECK(after.quality.mean_skewness < before.quality.mean_skewness);
+    CHECK((out.point(v) - Eigen::Vector3d(1, 1, 1)).norm() < (m.point(v) - Eigen::Vector3d(1, 1, 1)).norm());
+    CHECK(same_surface(out, m));
+}
+
+TEST_CASE("Smoothing a jittered tetgen mesh keeps it valid and the worst tet no worse", "[refine]") {
+    const std::string dir = fixtures::temp_dir("refine_smooth");
+    core::TetMesh m = refine_fixtures::tetgen_mesh(fixtures::uv_sphere(10.0, 12), dir, "pYq1.3Q");
+    REQUIRE(static_cast<std::int32_t>(m.node_count()) > m.surface_vertices + 20);
+    // Jitter interior nodes (keeping every tet positive) to make a poor mesh.
+    {
+        TetTopology topo(m);
+        std::mt19937 rng(7);
+        std::uniform_real_distribution<double> u(-0.8, 0.8);
+        std::vector<std::int32_t> star;
+        for (std::int32_t v = m.surface_vertices; v < topo.node_capacity(); ++v) {
+            if (!topo.star(v, star)) continue;
+            const Eigen::Vector3d p0 = topo.point(v);
+            topo.set_point(v, p0 + Eigen::Vector3d(u(rng), u(rng), u(rng)));
+            for (const std::int32_t t : star) {
+                const Tet& tt = topo.tet(t);
+                if (!volume::positive_tet(topo.xyz(tt[0]), topo.xyz(tt[1]), topo.xyz(tt[2]), topo.xyz(tt[3]))) {
+                    topo.set_point(v, p0);
+                    break;
+                }
+            }
+        }
+        m = topo.compact();
+    }
+    const auto before = volume::check_tet_mesh(m);
+    REQUIRE(before.valid());
+    TetTopology topo(m);
+    RefineOps ops(topo, RefineParams{});
+    for (int k = 0; k < 3; ++k) ops.smooth();
+    CHECK(ops.counts.smoothing_moves > 0);
+    const core::TetMesh out = topo.compact();
+    const auto after = volume::check_tet_mesh(out);
+    INFO(before.summary() << "\n" << after.summary());
+    CHECK(after.valid());
+    CHECK(after.quality.max_skewness <= before.quality.max_skewness);
+    CHECK(after.quality.mean_skewness < before.quality.mean_skewness);
+    CHECK(same_surface(out, m));
+}
+
+TEST_CASE("Refine of a two-region tetgen mesh keeps surfaces and regions", "[refine]") {
+    const std::string dir = fixtures::temp_dir("refine_two_regions");
+    const core::SurfaceNetwork s =
+        refine_fixtures::nested_spheres(fixtures::uv_sphere(6.0, 10), fixtures::uv_sphere(10.0, 14));
+    const core::TetMesh input = refine_fixtures::tetgen_mesh(
+        s, dir, "pYQ", {{0.0, 0.0, 0.0, 1}, {8.0, 0.0, 0.0, 2}});
+    const auto before = volume::check_tet_mesh(input);
+    INFO(before.summary());
+    REQUIRE(before.valid());
+    REQUIRE(before.region_volume.size() == 2);
+
+    core::StageContext ctx;
+    const core::TetMesh out = volume::refine(input, RefineParams{}, ctx);
+    const auto after = volume::check_tet_mesh(out);
+    INFO(after.summary());
+    CHECK(after.valid());
+    CHECK(same_surface(out, input));
+    for (const auto& [label, volume] : before.region_volume)
+        CHECK(after.region_volume.at(label) == Approx(volume).epsilon(1e-9));
+    CHECK(after.quality.max_skewness < before.quality.max_skewness);
+    CHECK(after.quality.mean_skewness < before.quality.mean_skewness);
+    for (const auto& [label, q] : before.region_quality)
+        CHECK(after.region_quality.at(label).mean_skewness < q.mean_skewness);
+    const auto& counters = ctx.counters();
+    CHECK(counters.at("refine.flips_2_3") + counters.at("refine.flips_3_2") + counters.at("refine.flips_n_m") > 0);
+    CHECK(counters.at("refine.pass0.max_skewness") == Approx(before.quality.max_skewness));
+    CHECK(counters.at("refine.pass3.max_skewness") <= counters.at("refine.pass1.max_skewness"));
+    CHECK(counters.count("refine.final.min_dihedral") == 1);
+}
+
+TEST_CASE("Refine is deterministic for any thread count", "[refine]") {
+    const std::string dir = fixtures::temp_dir("refine_determinism");
+    const core::TetMesh input = refine_fixtures::tetgen_mesh(fixtures::uv_sphere(10.0, 12), dir, "pYq1.3Q");
+    core::TetMesh one, many;
+    {
+        tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 1);
+        core::StageContext ctx;
+        one = volume::refine(input, RefineParams{}, ctx);
+    }
+    {
+        core::StageContext ctx;
+        many = volume::refine(input, RefineParams{}, ctx);
+    }
+    CHECK(one.tets == many.tets);
+    CHECK(one.xyz == many.xyz);
+    CHECK(one.region == many.region);
+}
+
+TEST_CASE("Refined tetgen sphere passes meshcheck with the surface preserved", "[refine]") {
+    const std::string dir = fixtures::temp_dir("refine_meshcheck");
+    const core::SurfaceNetwork surface = fixtures::uv_sphere(10.0, 16);
+    const core::TetMesh input = refine_fixtures::tetgen_mesh(surface, dir, "pYQ");
+    core::StageContext ctx;
+    const core::TetMesh out = volume::refine(input, RefineParams{}, ctx);
+    REQUIRE(volume::check_tet_mesh(out).valid());
+    io::write_surface_vtu(surface, dir + "/surface.vtu", {});
+    io::write_tet_mesh_vtu(out, dir + "/refined.vtu", {});
+    const std::string command = "/usr/bin/python3 /work/shared/tools/meshcheck.py '" + dir +
+                                "/refined.vtu' --surface '" + dir + "/surface.vtu' --strict-surface > '" +
+                                dir + "/meshcheck.log' 2>&1";
+    CHECK(std::system(command.c_str()) == 0);
+}
+
+TEST_CASE("Refine parameters are validated by key", "[refine]") {
+    RefineParams p;
+    p.flip_skewness = 1.5;
+    try {
+        volume::validate(p);
+        FAIL("no error");
+    } catch (const core::InputError& e) {
+        CHECK(std::string(e.what()).find("refine.flip_skewness") != std::string::npos);
+    }
+    CHECK_NOTHROW(volume::validate(RefineParams{}));
+}

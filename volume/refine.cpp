@@ -1,0 +1,156 @@
+#include "volume/refine.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <numeric>
+#include <string>
+#include <vector>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include "pipeline/core/error.h"
+#include "pipeline/core/predicates.h"
+#include "pipeline/core/quality.h"
+#include "volume/refine_ops.h"
+#include "volume/tet_topology.h"
+
+namespace frontmesh::volume {
+
+namespace {
+
+constexpr double kRegularDihedralDeg = 70.528779365509308;  // arccos(1/3)
+
+
+struct Figures {
+    std::size_t tets = 0;
+    double max_skewness = 0.0;
+    double mean_skewness = 0.0;
+    std::size_t skew_over_08 = 0;
+    double min_dihedral = 180.0;
+};
+
+/// Quality of the alive tets: fixed blocks reduced in order, identical for any thread count.
+Figures measure(const TetTopology& topo) {
+    constexpr std::int32_t kBlock = 16384;
+    const std::int32_t n = topo.tet_capacity();
+    const std::int32_t blocks = (n + kBlock - 1) / kBlock;
+    std::vector<Figures> part(static_cast<std::size_t>(blocks));
+    tbb::parallel_for(std::int32_t{0}, blocks, [&](std::int32_t b) {
+        Figures f;
+        double sum = 0.0;
+        for (std::int32_t t = b * kBlock; t < std::min(n, (b + 1) * kBlock); ++t) {
+            if (!topo.alive(t)) continue;
+            const Tet& tt = topo.tet(t);
+            const TetShape shape = tet_shape(topo.xyz(tt[0]), topo.xyz(tt[1]), topo.xyz(tt[2]), topo.xyz(tt[3]), true);
+            const double s = shape.skewness;
+            ++f.tets;
+            sum += s;
+            f.max_skewness = std::max(f.max_skewness, s);
+            if (s > 0.8) ++f.skew_over_08;
+            f.min_dihedral = std::min(f.min_dihedral, shape.min_dihedral_deg);
+        }
+        f.mean_skewness = sum;  // a sum until merged
+        part[static_cast<std::size_t>(b)] = f;
+    });
+    Figures all;
+    double sum = 0.0;
+    for (const Figures& f : part) {
+        all.tets += f.tets;
+        sum += f.mean_skewness;
+        all.max_skewness = std::max(all.max_skewness, f.max_skewness);
+        all.skew_over_08 += f.skew_over_08;
+        all.min_dihedral = std::min(all.min_dihedral, f.min_dihedral);
+    }
+    all.mean_skewness = all.tets ? sum / static_cast<double>(all.tets) : 0.0;
+    return all;
+}
+
+void record(core::StageContext& ctx, const std::string& prefix, const Figures& f) {
+    ctx.count(prefix + ".tets", static_cast<double>(f.tets));
+    ctx.count(prefix + ".max_skewness", f.max_skewness);
+    ctx.count(prefix + ".mean_skewness", f.mean_skewness);
+    ctx.count(prefix + ".skew_over_08", static_cast<double>(f.skew_over_08));
+    ctx.count(prefix + ".min_dihedral", f.min_dihedral);
+}
+
+std::string describe(const Figures& f) {
+    char buffer[200];
+    std::snprintf(buffer, sizeof buffer,
+                  "%zu tets, skewness mean %.4f max %.4f, %zu over 0.8 (%.4f%%), min dihedral %.2f deg",
+                  f.tets, f.mean_skewness, f.max_skewness, f.skew_over_08,
+                  f.tets ? 100.0 * static_cast<double>(f.skew_over_08) / static_cast<double>(f.tets) : 0.0,
+                  f.min_dihedral);
+    return buffer;
+}
+
+void check_range(bool ok, const std::string& key, const std::string& range) {
+    if (!ok) FM_THROW(InputError, "recipe key refine." + key + " must be in " + range);
+}
+
+}  // namespace
+
+void validate(const RefineParams& p) {
+    check_range(p.node_removal_max_tets >= 4 && p.node_removal_max_tets <= 12, "node_removal_max_tets", "[4, 12]");
+    check_range(p.passes >= 0 && p.passes <= 20, "passes", "[0, 20]");
+    check_range(p.smoothing_sweeps >= 1 && p.smoothing_sweeps <= 10, "smoothing_sweeps", "[1, 10]");
+    check_range(p.smoothing_skewness >= 0.0 && p.smoothing_skewness < 1.0, "smoothing_skewness", "[0, 1)");
+    check_range(p.flip_skewness >= 0.0 && p.flip_skewness < 1.0, "flip_skewness", "[0, 1)");
+    check_range(p.flip_max_ring >= 3 && p.flip_max_ring <= 10, "flip_max_ring", "[3, 10]");
+    check_range(p.flip_sweeps >= 1 && p.flip_sweeps <= 20, "flip_sweeps", "[1, 20]");
+    check_range(p.sliver_dihedral_deg > 0.0 && p.sliver_dihedral_deg <= kRegularDihedralDeg,
+                "sliver_dihedral_deg", "(0, 70.5]");
+    check_range(p.sliver_sweeps >= 1 && p.sliver_sweeps <= 20, "sliver_sweeps", "[1, 20]");
+}
+
+core::TetMesh refine(const core::TetMesh& mesh, const RefineParams& params, core::StageContext& ctx) {
+    validate(params);
+    TetTopology topo(mesh);
+    RefineOps refiner(topo, params);
+
+    Figures figures = measure(topo);
+    record(ctx, "refine.pass0", figures);
+    ctx.info("refine: input " + describe(figures));
+
+    const int steps = 2 + params.passes;
+    if (params.node_removal) {
+        refiner.remove_nodes();
+        ctx.count("refine.nodes_removed", static_cast<double>(refiner.counts.nodes_removed));
+        ctx.info("refine: node removal took out " + std::to_string(refiner.counts.nodes_removed) + " nodes");
+    }
+    ctx.progress(1.0 / steps, "node removal");
+    for (int pass = 1; pass <= params.passes; ++pass) {
+        if (params.smoothing)
+            for (int s = 0; s < params.smoothing_sweeps; ++s) refiner.smooth();
+        refiner.flips();
+        figures = measure(topo);
+        record(ctx, "refine.pass" + std::to_string(pass), figures);
+        ctx.info("refine: pass " + std::to_string(pass) + ": " + describe(figures));
+        ctx.progress(static_cast<double>(1 + pass) / steps, "smoothing and flips");
+    }
+    if (params.sliver_pass) {
+        refiner.slivers();
+        figures = measure(topo);
+        record(ctx, "refine.sliver", figures);
+        ctx.info("refine: sliver pass: " + describe(figures));
+    }
+    const RefineCounts& c = refiner.counts;
+    ctx.count("refine.smoothing_moves", static_cast<double>(c.smoothing_moves));
+    ctx.count("refine.flips_2_3", static_cast<double>(c.flips_2_3));
+    ctx.count("refine.flips_3_2", static_cast<double>(c.flips_3_2));
+    ctx.count("refine.flips_4_4", static_cast<double>(c.flips_4_4));
+    ctx.count("refine.flips_n_m", static_cast<double>(c.flips_n_m));
+    ctx.count("refine.flip_attempts", static_cast<double>(c.flip_attempts));
+    ctx.count("refine.edge_rings", static_cast<double>(c.edge_rings));
+    ctx.count("refine.sliver.flips", static_cast<double>(c.sliver_flips));
+    ctx.count("refine.sliver.moves", static_cast<double>(c.sliver_moves));
+    ctx.count("refine.sliver.removals", static_cast<double>(c.sliver_removals));
+    record(ctx, "refine.final", figures);
+    ctx.progress(1.0, "refine done");
+    return topo.compact();
+}
+
+}  // namespace frontmesh::volume

@@ -1,0 +1,550 @@
+#include "volume/refine_ops.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <string>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include "pipeline/core/error.h"
+#include "pipeline/core/predicates.h"
+#include "pipeline/core/quality.h"
+
+namespace frontmesh::volume {
+
+namespace {
+
+using V3 = Eigen::Vector3d;
+constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr double kRegularDihedralDeg = 70.528779365509308;  // arccos(1/3)
+
+/// Tets with skewness above 0.8 (the acceptance figure) among `tets` / the tets with ids `ids`.
+std::size_t over_08(const TetTopology& topo, std::span<const Tet> tets) {
+    std::size_t n = 0;
+    for (const Tet& t : tets)
+        if (tet_shape(topo.xyz(t[0]), topo.xyz(t[1]), topo.xyz(t[2]), topo.xyz(t[3]), false).skewness > 0.8) ++n;
+    return n;
+}
+std::size_t over_08(const TetTopology& topo, std::span<const std::int32_t> ids) {
+    std::size_t n = 0;
+    for (const std::int32_t id : ids) {
+        const Tet& t = topo.tet(id);
+        if (tet_shape(topo.xyz(t[0]), topo.xyz(t[1]), topo.xyz(t[2]), topo.xyz(t[3]), false).skewness > 0.8) ++n;
+    }
+    return n;
+}
+
+bool tet_positive(const TetTopology& topo, const Tet& t) {
+    return positive_tet(topo.xyz(t[0]), topo.xyz(t[1]), topo.xyz(t[2]), topo.xyz(t[3]));
+}
+
+}  // namespace
+
+TetShape tet_shape(const double* pa, const double* pb, const double* pc, const double* pd, bool dihedral) {
+    const V3 a = Eigen::Map<const V3>(pa), u = Eigen::Map<const V3>(pb) - a,
+             v = Eigen::Map<const V3>(pc) - a, w = Eigen::Map<const V3>(pd) - a;
+    const V3 vw = v.cross(w), wu = w.cross(u), uv = u.cross(v);
+    const double det = u.dot(vw);  // 6 V, > 0 for a VTK-positive tet
+    const double uu = u.squaredNorm(), vv = v.squaredNorm(), ww = w.squaredNorm();
+    const double l2 = uu + vv + ww + (v - u).squaredNorm() + (w - u).squaredNorm() + (w - v).squaredNorm();
+    const double l_rms = std::sqrt(l2 / 6.0);
+    TetShape shape;
+    // Eq. 1 through the circumradius is ill-conditioned for nearly flat tets (four almost
+    // co-circular nodes can give any radius, even "equilateral"): below a normalised volume of
+    // 1e-6 (6 sqrt(2) V / l_rms^3, 1 for the regular tet) the tet counts as degenerate.
+    if (!(std::sqrt(2.0) * std::abs(det) >= 1e-6 * l_rms * l_rms * l_rms)) return shape;
+    // Eq. 1: circumcentre offset from a = (|u|^2 v x w + |v|^2 w x u + |w|^2 u x v) / (2 det).
+    const double R = (uu * vw + vv * wu + ww * uv).norm() / (2.0 * std::abs(det));
+    const double volume = std::abs(det) / 6.0;
+    const double v_opt = 8.0 * std::sqrt(3.0) / 27.0 * R * R * R;
+    shape.skewness = std::clamp((v_opt - volume) / v_opt, 0.0, 1.0);
+    if (!dihedral) return shape;
+    // Outward face normals (for positive det): face opposite a is (b, c, d), etc. The interior
+    // dihedral angle between faces i and j is pi - acos(n_i . n_j): the smallest angle belongs
+    // to the smallest dot product, so one acos suffices.
+    const V3 bc = v - u, bd = w - u;
+    std::array<V3, 4> n{bc.cross(bd), -vw, -wu, -uv};  // opposite a, b, c, d
+    if (det < 0.0)
+        for (V3& x : n) x = -x;
+    double smallest = 1.0;
+    for (V3& x : n) {
+        const double length = x.norm();
+        if (length == 0.0) {
+            shape.min_dihedral_deg = 0.0;
+            return shape;
+        }
+        x /= length;
+    }
+    for (int i = 0; i < 4; ++i)
+        for (int j = i + 1; j < 4; ++j) smallest = std::min(smallest, n[static_cast<std::size_t>(i)].dot(n[static_cast<std::size_t>(j)]));
+    shape.min_dihedral_deg = (std::numbers::pi - std::acos(std::clamp(smallest, -1.0, 1.0))) * 180.0 / std::numbers::pi;
+    return shape;
+}
+
+double tet_cost(const TetTopology& topo, const Tet& t, Objective objective) {
+    const TetShape s = tet_shape(topo.xyz(t[0]), topo.xyz(t[1]), topo.xyz(t[2]), topo.xyz(t[3]),
+                                 objective == Objective::Combined);
+    if (objective == Objective::Skewness) return s.skewness;
+    return std::max(s.skewness, 1.0 - s.min_dihedral_deg / kRegularDihedralDeg);
+}
+
+/// §3.3.1: unconditional removal of interior nodes with small stars.
+void RefineOps::remove_nodes() {
+    for (int sweep = 0; sweep < 2; ++sweep) {
+        std::size_t removed = 0;
+        for (std::int32_t v = topo_.mesh().surface_vertices; v < topo_.node_capacity(); ++v) {
+            if (topo_.node_tet(v) < 0) continue;
+            if (remove_node(v, params_.node_removal_max_tets, Objective::Skewness, false))
+                ++removed;
+        }
+        counts.nodes_removed += removed;
+        if (removed == 0) break;
+    }
+}
+
+/// §3.3.2: one Gauss-Seidel sweep of angle-based smoothing over interior nodes (id order).
+void RefineOps::smooth() {
+    node_settled_.resize(static_cast<std::size_t>(topo_.node_capacity()), 0);
+    for (std::int32_t v = topo_.mesh().surface_vertices; v < topo_.node_capacity(); ++v) {
+        if (topo_.node_tet(v) < 0 || node_settled_[static_cast<std::size_t>(v)]) continue;
+        if (smooth_node(v)) ++counts.smoothing_moves;
+        else node_settled_[static_cast<std::size_t>(v)] = 1;  // until its star changes
+    }
+}
+
+void RefineOps::changed_tets(std::span<const std::int32_t> tets) {
+    const auto n = static_cast<std::size_t>(topo_.tet_capacity());
+    if (settled_.size() < n) settled_.resize(n, 0);
+    if (node_settled_.size() < static_cast<std::size_t>(topo_.node_capacity()))
+        node_settled_.resize(static_cast<std::size_t>(topo_.node_capacity()), 0);
+    for (const std::int32_t t : tets) {
+        settled_[static_cast<std::size_t>(t)] = 0;
+        for (int i = 0; i < 4; ++i) {
+            const std::int32_t u = topo_.neighbor(t, i);
+            if (u >= 0) settled_[static_cast<std::size_t>(u)] = 0;
+        }
+        if (!topo_.alive(t)) continue;
+        for (const std::int32_t v : topo_.tet(t)) node_settled_[static_cast<std::size_t>(v)] = 0;
+    }
+}
+
+void RefineOps::apply(std::span<const std::int32_t> old_tets, std::span<const Tet> new_tets, core::Label region) {
+    topo_.replace(old_tets, new_tets, region, &new_ids_);
+    changed_tets(new_ids_);
+}
+
+/// §3.3.3: flips around tets with skewness > flip_skewness, worst first.
+void RefineOps::flips() {
+    for (int sweep = 0; sweep < params_.flip_sweeps; ++sweep) {
+        const auto candidates = bad_tets(Objective::Skewness, params_.flip_skewness);
+        settled_.resize(static_cast<std::size_t>(topo_.tet_capacity()), 0);
+        std::size_t changed = 0;
+        for (const std::int32_t t : candidates) {
+            // Tets tried without success are skipped until they or a neighbour change.
+            if (!topo_.alive(t) || settled_[static_cast<std::size_t>(t)]) continue;
+            if (tet_cost(topo_, topo_.tet(t), Objective::Skewness) <= params_.flip_skewness)
+                continue;
+            if (improve_by_flips(t, Objective::Skewness, params_.flip_delaunay_test)) ++changed;
+            else settled_[static_cast<std::size_t>(t)] = 1;
+        }
+        if (changed == 0) break;
+    }
+}
+
+/// Beyond the paper: slivers (small dihedral) and remaining caps, worst first: flips with the
+/// combined objective, then moves of their interior nodes, then conditional node removal.
+void RefineOps::slivers() {
+    const double threshold = 1.0 - params_.sliver_dihedral_deg / kRegularDihedralDeg;
+    const double target = std::min(threshold, 0.8);
+    settled_.assign(static_cast<std::size_t>(topo_.tet_capacity()), 0);  // a new objective
+    for (int sweep = 0; sweep < params_.sliver_sweeps; ++sweep) {
+        const auto candidates = bad_tets(Objective::Combined, target);
+        settled_.resize(static_cast<std::size_t>(topo_.tet_capacity()), 0);
+        std::size_t changed = 0;
+        for (const std::int32_t t : candidates) {
+            if (!topo_.alive(t) || settled_[static_cast<std::size_t>(t)]) continue;
+            if (tet_cost(topo_, topo_.tet(t), Objective::Combined) <= target) continue;
+            if (improve_by_flips(t, Objective::Combined, false)) {
+                ++counts.sliver_flips;
+                ++changed;
+                continue;
+            }
+            const Tet tt = topo_.tet(t);
+            bool done = false;
+            for (int i = 0; i < 4 && !done; ++i) {
+                const std::int32_t v = tt[static_cast<std::size_t>(i)];
+                if (topo_.is_surface_node(v)) continue;
+                if (move_node(v, tt, i)) {
+                    ++counts.sliver_moves;
+                    done = true;
+                }
+            }
+            for (int i = 0; i < 4 && !done; ++i) {
+                const std::int32_t v = tt[static_cast<std::size_t>(i)];
+                if (topo_.is_surface_node(v)) continue;
+                if (remove_node(v, 24, Objective::Combined, true)) {
+                    ++counts.sliver_removals;
+                    done = true;
+                }
+            }
+            if (done) ++changed;
+            else settled_[static_cast<std::size_t>(t)] = 1;
+        }
+        if (changed == 0) break;
+    }
+}
+
+std::vector<std::int32_t> RefineOps::bad_tets(Objective objective, double threshold) const {
+    // Costs in parallel (each tet independent), collected in id order: deterministic.
+    std::vector<double> cost(static_cast<std::size_t>(topo_.tet_capacity()), -1.0);
+    tbb::parallel_for(tbb::blocked_range<std::int32_t>(0, topo_.tet_capacity(), 8192),
+                      [&](const tbb::blocked_range<std::int32_t>& range) {
+        for (std::int32_t t = range.begin(); t != range.end(); ++t)
+            if (topo_.alive(t)) cost[static_cast<std::size_t>(t)] = tet_cost(topo_, topo_.tet(t), objective);
+    });
+    std::vector<std::pair<double, std::int32_t>> bad;
+    for (std::int32_t t = 0; t < topo_.tet_capacity(); ++t)
+        if (cost[static_cast<std::size_t>(t)] > threshold) bad.emplace_back(cost[static_cast<std::size_t>(t)], t);
+    std::sort(bad.begin(), bad.end(), [](const auto& x, const auto& y) {
+        return x.first != y.first ? x.first > y.first : x.second < y.second;
+    });
+    std::vector<std::int32_t> out;
+    out.reserve(bad.size());
+    for (const auto& b : bad) out.push_back(b.second);
+    return out;
+}
+
+double RefineOps::max_cost(std::span<const std::int32_t> tets, Objective objective) const {
+    double worst = 0.0;
+    for (const std::int32_t t : tets) worst = std::max(worst, tet_cost(topo_, topo_.tet(t), objective));
+    return worst;
+}
+
+/// Removes interior node v when its star has at most `max_tets` tets and the hole can be
+/// filled by a fan from one of its link nodes (all new tets positive, exact). The fan with
+/// the smallest largest cost is used; with `conditional` only when that beats the star.
+bool RefineOps::remove_node(std::int32_t v, int max_tets, Objective objective, bool conditional) {
+    if (!topo_.star(v, star_)) return false;
+    if (static_cast<int>(star_.size()) > max_tets) return false;
+    link_.clear();
+    for (const std::int32_t t : star_)
+        for (const std::int32_t w : topo_.tet(t))
+            if (w != v && std::find(link_.begin(), link_.end(), w) == link_.end()) link_.push_back(w);
+    std::sort(link_.begin(), link_.end());
+    double best = conditional ? max_cost(star_, objective) : kInf;
+    bool found = false;
+    for (const std::int32_t w : link_) {
+        candidate_.clear();
+        bool valid = true;
+        double worst = 0.0;
+        for (const std::int32_t t : star_) {
+            Tet nt = topo_.tet(t);
+            if (local_index(nt, w) >= 0) continue;
+            nt[static_cast<std::size_t>(local_index(nt, v))] = w;
+            if (!tet_positive(topo_, nt)) {
+                valid = false;
+                break;
+            }
+            worst = std::max(worst, tet_cost(topo_, nt, objective));
+            candidate_.push_back(nt);
+        }
+        if (!valid || worst >= best) continue;
+        best = worst;
+        best_ = candidate_;
+        found = true;
+    }
+    if (!found) return false;
+    // The sliver objective trades skewness for dihedral angle: never at the price of more tets
+    // above skewness 0.8.
+    if (objective == Objective::Combined && over_08(topo_, best_) > over_08(topo_, star_)) return false;
+    apply(star_, best_, topo_.region(star_[0]));
+    return true;
+}
+
+/// The angle-based target of node v (Zhou & Shimada, extended to 3-D): for each neighbour
+/// N_j, the direction from N_j is rotated onto the axis of the cone of nodes around edge
+/// (N_j, v) (the 3-D analogue of the angle bisector), keeping |N_j v|; the mean is the target.
+Eigen::Vector3d RefineOps::angle_based_target(std::int32_t v) {
+    // For a closed star every node r around edge (v, N_j) lies in exactly two star tets (the
+    // two sharing face (v, N_j, r)), so summing over the star tets' link-node pairs weights each
+    // ring node twice: the axis direction is unchanged.
+    const V3 pv = topo_.point(v);
+    axes_.assign(link_.size(), V3::Zero());
+    auto slot = [&](std::int32_t w) {
+        return static_cast<std::size_t>(std::find(link_.begin(), link_.end(), w) - link_.begin());
+    };
+    for (const std::int32_t t : star_) {
+        const Tet& tt = topo_.tet(t);
+        std::array<std::int32_t, 3> others{};
+        int k = 0;
+        for (const std::int32_t w : tt)
+            if (w != v) others[static_cast<std::size_t>(k++)] = w;
+        for (int x = 0; x < 3; ++x)
+            for (int y = x + 1; y < 3; ++y) {
+                const std::int32_t j = others[static_cast<std::size_t>(x)], r = others[static_cast<std::size_t>(y)];
+                V3 u = topo_.point(r) - topo_.point(j);
+                const double length = u.norm();
+                if (length == 0.0) continue;
+                u /= length;
+                axes_[slot(j)] += u;
+                axes_[slot(r)] -= u;
+            }
+    }
+    V3 sum = V3::Zero();
+    for (std::size_t k = 0; k < link_.size(); ++k) {
+        const V3 pj = topo_.point(link_[k]);
+        const V3& axis = axes_[k];
+        const V3 jv = pv - pj;
+        const double length = jv.norm();
+        const double axis_length = axis.norm();
+        V3 direction = axis_length > 1e-9 * (length + 1e-300) ? V3(axis / axis_length) : V3(jv / length);
+        if (direction.dot(jv) < 0.0) direction = -direction;
+        sum += pj + length * direction;  // N_j rotated onto the cone axis, |N_j v| kept
+    }
+    return link_.empty() ? pv : V3(sum / static_cast<double>(link_.size()));
+}
+
+/// Largest cost and the cost sum of the star of v with v at p; +inf when a tet would not be
+/// strictly positive (exact).
+std::pair<double, double> RefineOps::star_cost(std::int32_t v, const V3& p, Objective objective) {
+    const V3 old = topo_.point(v);
+    topo_.set_point(v, p);
+    double worst = 0.0, sum = 0.0;
+    for (const std::int32_t t : star_) {
+        const Tet& tt = topo_.tet(t);
+        if (!tet_positive(topo_, tt)) {
+            worst = kInf;
+            break;
+        }
+        const double c = tet_cost(topo_, tt, objective);
+        worst = std::max(worst, c);
+        sum += c;
+    }
+    topo_.set_point(v, old);
+    return {worst, sum};
+}
+
+void RefineOps::collect_link(std::int32_t v) {
+    link_.clear();
+    for (const std::int32_t t : star_)
+        for (const std::int32_t w : topo_.tet(t))
+            if (w != v && std::find(link_.begin(), link_.end(), w) == link_.end()) link_.push_back(w);
+}
+
+bool RefineOps::smooth_node(std::int32_t v) {
+    if (!topo_.star(v, star_)) return false;
+    collect_link(v);
+    const V3 p0 = topo_.point(v);
+    const auto [old_worst, old_sum] = star_cost(v, p0, Objective::Skewness);
+    if (old_worst <= params_.smoothing_skewness) return false;  // star good enough already
+    const V3 target = angle_based_target(v);
+    for (const double s : {1.0, 0.5, 0.25}) {
+        const V3 p = p0 + s * (target - p0);
+        const auto [worst, sum] = star_cost(v, p, Objective::Skewness);
+        // The worst incident quality must not get worse, and the star must gain overall.
+        if (worst <= old_worst && sum < old_sum) {
+            topo_.set_point(v, p);
+            changed_tets(star_);
+            return true;
+        }
+    }
+    return false;
+}
+
+/// Sliver pass: moves interior node v (local index i of the sliver `sliver`) to the best of
+/// a few candidates (angle-based target, away from its opposite face, fixed pseudo-random
+/// offsets) when that lowers the combined cost of its star.
+bool RefineOps::move_node(std::int32_t v, const Tet& sliver, int i) {
+    if (!topo_.star(v, star_)) return false;
+    collect_link(v);
+    const V3 p0 = topo_.point(v);
+    double h = 0.0;
+    for (const std::int32_t w : link_) h += (topo_.point(w) - p0).norm();
+    h /= static_cast<double>(link_.size());
+    const auto f = tet_face(sliver, i);  // outward: v lies on the side opposite its normal
+    V3 n = (topo_.point(f[1]) - topo_.point(f[0])).cross(topo_.point(f[2]) - topo_.point(f[0]));
+    if (n.norm() > 0.0) n = -n.normalized();
+    std::vector<V3> candidates;
+    const V3 target = angle_based_target(v);
+    for (const double s : {1.0, 0.5, 0.25}) candidates.push_back(p0 + s * (target - p0));
+    for (const double s : {0.4, 0.2, 0.1, 0.05}) candidates.push_back(p0 + s * h * n);
+    // Fixed offsets (a deterministic function of v): a small random search.
+    std::uint64_t state = 0x9E3779B97F4A7C15ull ^ static_cast<std::uint64_t>(v) * 0xBF58476D1CE4E5B9ull;
+    auto next = [&]() {
+        state ^= state >> 33;
+        state *= 0xff51afd7ed558ccdull;
+        state ^= state >> 33;
+        return static_cast<double>(state >> 11) / 9007199254740992.0 * 2.0 - 1.0;
+    };
+    for (int k = 0; k < 12; ++k) {
+        V3 d(next(), next(), next());
+        if (d.norm() < 1e-6) continue;
+        candidates.push_back(p0 + (k < 6 ? 0.2 : 0.07) * h * d.normalized());
+    }
+    const auto [old_worst, old_sum] = star_cost(v, p0, Objective::Combined);
+    double best_worst = old_worst, best_sum = old_sum;
+    int best = -1;
+    for (std::size_t k = 0; k < candidates.size(); ++k) {
+        const auto [worst, sum] = star_cost(v, candidates[k], Objective::Combined);
+        if (worst < best_worst || (worst == best_worst && sum < best_sum && best >= 0)) {
+            best_worst = worst;
+            best_sum = sum;
+            best = static_cast<int>(k);
+        }
+    }
+    if (best < 0 || !(best_worst < old_worst)) return false;
+    {
+        const std::size_t before = over_08(topo_, star_);
+        topo_.set_point(v, candidates[static_cast<std::size_t>(best)]);
+        const std::size_t after = over_08(topo_, star_);
+        topo_.set_point(v, p0);
+        if (after > before) return false;
+    }
+    topo_.set_point(v, candidates[static_cast<std::size_t>(best)]);
+    changed_tets(star_);
+    return true;
+}
+
+/// Edge suppression: removes edge (a, b) (around tet t) and fills its ring polygon with the
+/// triangulation minimising the largest cost (dynamic programming over the polygon); kept only
+/// when that beats the ring's current largest cost. 3 -> 2, 4 -> 4, n -> 2n - 4.
+bool RefineOps::remove_edge(std::int32_t a, std::int32_t b, std::int32_t t, Objective objective) {
+    ++counts.edge_rings;
+    if (!topo_.edge_ring(a, b, t, ring_tets_, ring_)) return false;
+    const int n = static_cast<int>(ring_.size());
+    if (n < 3 || n > params_.flip_max_ring) return false;
+    const double old_worst = unconditional_ ? kInf : max_cost(ring_tets_, objective);
+    constexpr int kMax = 10;
+    std::array<std::array<double, kMax>, kMax> best{};
+    std::array<std::array<int, kMax>, kMax> arg{};
+    auto new_tets = [&](int i, int k, int j) {
+        const std::int32_t ri = ring_[static_cast<std::size_t>(i)];
+        const std::int32_t rk = ring_[static_cast<std::size_t>(k)];
+        const std::int32_t rj = ring_[static_cast<std::size_t>(j)];
+        return std::array<Tet, 2>{Tet{ri, rk, rj, b}, Tet{ri, rj, rk, a}};
+    };
+    for (int i = 0; i + 1 < n; ++i) best[static_cast<std::size_t>(i)][static_cast<std::size_t>(i + 1)] = 0.0;
+    for (int len = 2; len < n; ++len) {
+        for (int i = 0; i + len < n; ++i) {
+            const int j = i + len;
+            double value = kInf;
+            int choice = -1;
+            for (int k = i + 1; k < j; ++k) {
+                const double sub = std::max(best[static_cast<std::size_t>(i)][static_cast<std::size_t>(k)],
+                                            best[static_cast<std::size_t>(k)][static_cast<std::size_t>(j)]);
+                if (sub >= value || sub >= old_worst) continue;
+                const auto pair = new_tets(i, k, j);
+                double c = 0.0;
+                for (const Tet& nt : pair) {
+                    if (!tet_positive(topo_, nt)) {
+                        c = kInf;
+                        break;
+                    }
+                    c = std::max(c, tet_cost(topo_, nt, objective));
+                }
+                c = std::max(c, sub);
+                if (c < value) {
+                    value = c;
+                    choice = k;
+                }
+            }
+            best[static_cast<std::size_t>(i)][static_cast<std::size_t>(j)] = value;
+            arg[static_cast<std::size_t>(i)][static_cast<std::size_t>(j)] = choice;
+        }
+    }
+    if (!(best[0][static_cast<std::size_t>(n - 1)] < old_worst)) return false;
+    candidate_.clear();
+    std::vector<std::pair<int, int>> stack{{0, n - 1}};
+    while (!stack.empty()) {
+        const auto [i, j] = stack.back();
+        stack.pop_back();
+        if (j - i < 2) continue;
+        const int k = arg[static_cast<std::size_t>(i)][static_cast<std::size_t>(j)];
+        const auto pair = new_tets(i, k, j);
+        candidate_.push_back(pair[0]);
+        candidate_.push_back(pair[1]);
+        stack.emplace_back(i, k);
+        stack.emplace_back(k, j);
+    }
+    const core::Label r = topo_.region(ring_tets_[0]);
+    if (objective == Objective::Combined && over_08(topo_, candidate_) > over_08(topo_, ring_tets_)) return false;
+    apply(ring_tets_, candidate_, r);
+    if (n == 3) ++counts.flips_3_2;
+    else if (n == 4) ++counts.flips_4_4;
+    else ++counts.flips_n_m;
+    return true;
+}
+
+/// 2 -> 3: face i of tet t and the tet across it become three tets around the new edge AB.
+bool RefineOps::flip_2_3(std::int32_t t, int i, Objective objective) {
+    const std::int32_t u = topo_.neighbor(t, i);
+    if (u < 0) return false;
+    const Tet tt = topo_.tet(t);
+    const auto f = tet_face(tt, i);
+    std::int32_t b = -1;
+    for (const std::int32_t w : topo_.tet(u))
+        if (w != f[0] && w != f[1] && w != f[2]) b = w;
+    const double old_worst =
+        unconditional_ ? kInf
+                       : std::max(tet_cost(topo_, tt, objective), tet_cost(topo_, topo_.tet(u), objective));
+    candidate_.clear();
+    double worst = 0.0;
+    for (int k = 0; k < 4; ++k) {
+        if (k == i) continue;
+        Tet nt = tt;
+        nt[static_cast<std::size_t>(k)] = b;  // B takes the place of a node of F
+        if (!tet_positive(topo_, nt)) return false;
+        worst = std::max(worst, tet_cost(topo_, nt, objective));
+        if (worst >= old_worst) return false;
+        candidate_.push_back(nt);
+    }
+    const std::array<std::int32_t, 2> old{t, u};
+    if (objective == Objective::Combined && over_08(topo_, candidate_) > over_08(topo_, old)) return false;
+    apply(old, candidate_, topo_.region(t));
+    ++counts.flips_2_3;
+    return true;
+}
+
+/// §3.3.3 steps 2-3 for tet t: nodes A by descending area of the opposite face F; edge
+/// suppression on the edges of F first, then the 2 -> 3 swap of F. True when t was replaced.
+bool RefineOps::improve_by_flips(std::int32_t t, Objective objective, bool delaunay_test) {
+    ++counts.flip_attempts;
+    const Tet tt = topo_.tet(t);
+    std::array<std::pair<double, int>, 4> order;
+    for (int i = 0; i < 4; ++i) {
+        const auto f = tet_face(tt, i);
+        order[static_cast<std::size_t>(i)] = {
+            -core::triangle_area(topo_.point(f[0]), topo_.point(f[1]), topo_.point(f[2])), i};
+    }
+    std::sort(order.begin(), order.end());
+    std::array<std::array<std::int32_t, 2>, 6> tried{};
+    int n_tried = 0;
+    for (const auto& [negative_area, i] : order) {
+        const std::int32_t u = topo_.neighbor(t, i);
+        if (delaunay_test) {
+            if (u < 0) continue;
+            // Is A inside the circumsphere of T2? insphere wants orient3d(p0..p3) > 0, the
+            // opposite of our VTK-positive order: swap two nodes.
+            const Tet& ut = topo_.tet(u);
+            if (core::insphere(topo_.xyz(ut[1]), topo_.xyz(ut[0]), topo_.xyz(ut[2]), topo_.xyz(ut[3]),
+                               topo_.xyz(tt[static_cast<std::size_t>(i)])) <= 0)
+                continue;
+        }
+        const auto f = tet_face(tt, i);
+        for (int e = 0; e < 3; ++e) {
+            std::array<std::int32_t, 2> edge{f[static_cast<std::size_t>(e)], f[static_cast<std::size_t>((e + 1) % 3)]};
+            if (edge[0] > edge[1]) std::swap(edge[0], edge[1]);
+            if (std::find(tried.begin(), tried.begin() + n_tried, edge) != tried.begin() + n_tried) continue;
+            tried[static_cast<std::size_t>(n_tried++)] = edge;
+            if (remove_edge(edge[0], edge[1], t, objective)) return true;
+        }
+        if (u >= 0 && flip_2_3(t, i, objective)) return true;
+    }
+    return false;
+}
+
+}  // namespace frontmesh::volume

@@ -1,0 +1,125 @@
+#pragma once
+// The local operations of the refine stage (§3.3) on a TetTopology, exposed for the tests:
+// node removal, angle-based smoothing, flips (edge suppression n -> m, 2 -> 3) and the sliver
+// pass's node moves. Every change is validated with exact orientation tests and never crosses a
+// wall (boundary/interface face or region change). Sequential and deterministic.
+
+#include <cstddef>
+#include <cstdint>
+#include <span>
+#include <utility>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "volume/refine.h"
+#include "volume/tet_topology.h"
+
+namespace frontmesh::volume {
+
+/// What a local change minimises: the largest value over the tets it touches.
+enum class Objective {
+    Skewness,  ///< Eq. 1 (the paper's criterion)
+    Combined,  ///< max(skewness, 1 - min dihedral / 70.53 deg): slivers and caps alike
+};
+
+/// Skewness (Eq. 1) and smallest dihedral angle (degrees, when asked) of a tet; a nearly flat
+/// tet (normalised volume below 1e-6) reports skewness 1 and dihedral 0.
+struct TetShape {
+    double skewness = 1.0;
+    double min_dihedral_deg = 0.0;
+};
+TetShape tet_shape(const double* a, const double* b, const double* c, const double* d, bool dihedral);
+
+/// Cost of tet t (nodes of `topo`) under `objective`: 0 ideal, 1 degenerate.
+double tet_cost(const TetTopology& topo, const Tet& t, Objective objective);
+
+/// Counts of changes made.
+struct RefineCounts {
+    std::size_t nodes_removed = 0;
+    std::size_t smoothing_moves = 0;
+    std::size_t flips_2_3 = 0, flips_3_2 = 0, flips_4_4 = 0, flips_n_m = 0;
+    std::size_t sliver_flips = 0, sliver_moves = 0, sliver_removals = 0;
+    std::size_t flip_attempts = 0, edge_rings = 0;  ///< work done (tets examined, rings walked)
+};
+
+class RefineOps {
+public:
+    RefineOps(TetTopology& topo, const RefineParams& params) : topo_(topo), params_(params) {}
+
+    RefineCounts counts;
+
+    /// Tests only: accept any valid change (no quality criterion), to check the mechanics.
+    void set_unconditional(bool on) { unconditional_ = on; }
+
+    /// §3.3.1: unconditional removal of interior nodes with small stars.
+    void remove_nodes();
+
+    /// §3.3.2: one Gauss-Seidel sweep of angle-based smoothing over interior nodes (id order).
+    void smooth();
+
+    /// §3.3.3: flips around tets with skewness > flip_skewness, worst first.
+    void flips();
+
+    /// Beyond the paper: slivers (small dihedral) and remaining caps, worst first: flips with the
+    /// combined objective, then moves of their interior nodes, then conditional node removal.
+    void slivers();
+
+    std::vector<std::int32_t> bad_tets(Objective objective, double threshold) const;
+
+    double max_cost(std::span<const std::int32_t> tets, Objective objective) const;
+
+    /// Removes interior node v when its star has at most `max_tets` tets and the hole can be
+    /// filled by a fan from one of its link nodes (all new tets positive, exact). The fan with
+    /// the smallest largest cost is used; with `conditional` only when that beats the star.
+    bool remove_node(std::int32_t v, int max_tets, Objective objective, bool conditional);
+
+    /// The angle-based target of node v (Zhou & Shimada, extended to 3-D): for each neighbour
+    /// N_j, the direction from N_j is rotated onto the axis of the cone of nodes around edge
+    /// (N_j, v) (the 3-D analogue of the angle bisector), keeping |N_j v|; the mean is the target.
+    Eigen::Vector3d angle_based_target(std::int32_t v);
+
+    /// Largest cost and the cost sum of the star of v with v at p; +inf when a tet would not be
+    /// strictly positive (exact).
+    std::pair<double, double> star_cost(std::int32_t v, const Eigen::Vector3d& p, Objective objective);
+
+    void collect_link(std::int32_t v);
+
+    bool smooth_node(std::int32_t v);
+
+    /// Sliver pass: moves interior node v (local index i of the sliver `sliver`) to the best of
+    /// a few candidates (angle-based target, away from its opposite face, fixed pseudo-random
+    /// offsets) when that lowers the combined cost of its star.
+    bool move_node(std::int32_t v, const Tet& sliver, int i);
+
+    /// Edge suppression: removes edge (a, b) (around tet t) and fills its ring polygon with the
+    /// triangulation minimising the largest cost (dynamic programming over the polygon); kept only
+    /// when that beats the ring's current largest cost. 3 -> 2, 4 -> 4, n -> 2n - 4.
+    bool remove_edge(std::int32_t a, std::int32_t b, std::int32_t t, Objective objective);
+
+    /// 2 -> 3: face i of tet t and the tet across it become three tets around the new edge AB.
+    bool flip_2_3(std::int32_t t, int i, Objective objective);
+
+    /// §3.3.3 steps 2-3 for tet t: nodes A by descending area of the opposite face F; edge
+    /// suppression on the edges of F first, then the 2 -> 3 swap of F. True when t was replaced.
+    bool improve_by_flips(std::int32_t t, Objective objective, bool delaunay_test);
+
+private:
+    /// Replaces tets through the topology and marks the new tets, their neighbours and nodes
+    /// as changed.
+    void apply(std::span<const std::int32_t> old_tets, std::span<const Tet> new_tets, core::Label region);
+    /// Forgets that `tets` (and their neighbours and nodes) were tried without success.
+    void changed_tets(std::span<const std::int32_t> tets);
+
+    TetTopology& topo_;
+    RefineParams params_;
+    bool unconditional_ = false;
+    std::vector<std::int32_t> star_, link_, ring_tets_, ring_;
+    std::vector<Tet> candidate_, best_;
+    std::vector<std::int32_t> new_ids_;
+    std::vector<Eigen::Vector3d> axes_;
+    std::vector<std::uint8_t> settled_;       ///< per tet: flips tried, nothing found
+    std::vector<std::uint8_t> node_settled_;  ///< per node: smoothing tried, no move kept
+};
+
+}  // namespace frontmesh::volume

@@ -1,0 +1,1195 @@
+#include "volume/tetra.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <exception>
+#include <functional>
+#include <limits>
+#include <mutex>
+#include <queue>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <tbb/parallel_for.h>
+
+#include "pipeline/core/adt.h"
+#include "pipeline/core/error.h"
+#include "pipeline/core/predicates.h"
+#include "pipeline/core/quality.h"
+
+namespace frontmesh::volume {
+
+void validate(const TetraParams& p) {
+    if (!(p.stretching > 1.0 && p.stretching <= 2.0))
+        FM_THROW(InputError, "tetra.stretching must be in (1.0, 2.0], got " +
+                                 std::to_string(p.stretching));
+    if (p.height_smoothing_iterations < 0 || p.height_smoothing_iterations > 100)
+        FM_THROW(InputError, "tetra.height_smoothing_iterations must be in [0, 100], got " +
+                                 std::to_string(p.height_smoothing_iterations));
+    if (p.max_remesh_per_node < 0 || p.max_remesh_per_node > 50)
+        FM_THROW(InputError, "tetra.max_remesh_per_node must be in [0, 50], got " +
+                                 std::to_string(p.max_remesh_per_node));
+    if (!(p.min_angle_deg >= 0.0 && p.min_angle_deg <= 30.0))
+        FM_THROW(InputError, "tetra.min_angle_deg must be in [0, 30], got " +
+                                 std::to_string(p.min_angle_deg));
+    if (p.max_closing_rounds < 0 || p.max_closing_rounds > 100)
+        FM_THROW(InputError, "tetra.max_closing_rounds must be in [0, 100], got " +
+                                 std::to_string(p.max_closing_rounds));
+}
+
+namespace {
+
+using core::Label;
+using V3 = Eigen::Vector3d;
+using Tri = std::array<std::int32_t, 3>;
+using Tet = std::array<std::int32_t, 4>;
+
+constexpr double kDegToRad = 3.14159265358979323846 / 180.0;
+
+// Outward faces of a VTK-positive tet (v0, v1, v2, v3): the right-hand normal of each points
+// away from the opposite vertex.
+constexpr int kTetFace[4][3] = {{0, 2, 1}, {0, 1, 3}, {1, 2, 3}, {2, 0, 3}};
+
+/// What one region's mesher hands back for the merge.
+struct RegionResult {
+    Label region = 0;
+    std::int32_t boundary_nodes = 0;            // local ids [0, boundary_nodes) are surface ones
+    std::vector<std::int32_t> global_of_local;  // for the boundary nodes
+    std::vector<double> xyz;                    // every local node
+    std::vector<std::int32_t> level;            // every local node
+    std::vector<Tet> tets;                      // alive tets, local ids
+    std::int64_t remeshes = 0;
+    std::int64_t closing_rounds = 0;
+    std::int64_t closing_tets = 0;
+    std::int32_t levels = 0;
+    std::int64_t stat[8] = {};  // see kStatNames
+};
+
+constexpr const char* kStatNames[8] = {"bases_tried",         "bases_failed",
+                                       "candidates_rejected_by_tests", "candidates_invalid",
+                                       "tets_on_existing_nodes", "tets_on_new_nodes",
+                                       "stage1_tets",         "stage2_tets"};
+
+/// Cyclic equality of the oriented triangles (a, b, c) and t.
+bool same_cycle(const Tri& t, std::int32_t a, std::int32_t b, std::int32_t c) {
+    return (t[0] == a && t[1] == b && t[2] == c) || (t[1] == a && t[2] == b && t[0] == c) ||
+           (t[2] == a && t[0] == b && t[1] == c);
+}
+
+/// The layered advancing front of §3.1-3.2 for one region.
+///
+/// Memory per million elements: nodes 24 B xyz + 60 B attributes; front faces 64 B + 64 B in
+/// the ADT; tets 16 B + 16 B links + 5 B. About 0.1 GB per million tets in all.
+class RegionMesher {
+public:
+    using Log = std::function<void(const std::string&)>;
+    RegionMesher(const core::SurfaceNetwork& surface, Label region, const TetraParams& params,
+                 Log log)
+        : log_(std::move(log)), params_(params), region_(region), adt_(domain_of(surface, region), core::AdtItems::points) {
+        init_front(surface);
+    }
+
+    RegionResult run();
+
+private:
+    Log log_;
+    // ---- §3.1.1 required data ------------------------------------------------------------
+    const TetraParams params_;
+    const Label region_;
+    std::int32_t boundary_nodes_ = 0;
+    std::vector<std::int32_t> global_of_local_;
+
+    // nodes (flat, int32 ids)
+    std::vector<double> xyz_;
+    std::vector<std::int32_t> level_;         // front level at creation + 1 (0 = surface)
+    std::vector<std::int32_t> setup_stamp_;   // last front number that set this node up, -1
+    std::vector<double> normal_;              // Eq. 3, 3 per node
+    std::vector<double> h_;                   // h'_o of Eq. 6 (smoothed), 0 = never set
+    std::vector<double> rs_;                  // r'_s of Eq. 7
+    std::vector<std::int32_t> remesh_count_;  // §3.2
+    std::vector<std::int32_t> face_head_;     // first corner 3 f + c of the node's front faces
+    std::vector<std::int32_t> tet_head_;      // first corner 4 t + c of the node's tets
+    std::vector<std::int32_t> mark_;          // scratch stamps
+    std::int32_t mark_value_ = 0;
+
+    // front triangles (normal points into the unmeshed part of the region)
+    std::vector<Tri> fv_;
+    std::vector<double> fnormal_;             // unit, 3 per face
+    std::vector<double> farea_;
+    std::vector<std::int32_t> fnext_;         // 3 per face: next corner in the node's list
+    std::vector<std::int32_t> fstamp_;        // generation, validates queue entries
+    std::vector<std::int32_t> failed_stamp_;  // generation at which the face last failed
+    std::vector<std::uint8_t> falive_;
+    std::vector<std::int32_t> free_faces_;
+    std::int32_t front_size_ = 0;
+    core::Adt adt_;                           // the front nodes (§3.1.1)
+    // Front edge lengths in buckets of 2^(1/4) (each edge once per face), for a safe bound on
+    // the longest front edge: a front face touching a box has all its nodes in the box grown
+    // by that bound, so node queries find every face a test needs.
+    static constexpr int kBuckets = 512;
+    std::vector<std::int64_t> edge_bucket_ = std::vector<std::int64_t>(kBuckets, 0);
+    int top_bucket_ = 0;
+    std::vector<std::int32_t> fmark_;          // scratch stamps per face
+    std::int32_t fmark_value_ = 0;
+    std::vector<std::int32_t> node_ids_;       // scratch
+
+    // tetrahedra
+    std::vector<Tet> tv_;
+    std::vector<std::int32_t> tnext_;         // 4 per tet
+    std::vector<std::int32_t> tfront_;        // front number at creation
+    std::vector<std::uint8_t> talive_;
+    std::int64_t alive_tets_ = 0;
+
+    // run state
+    std::int32_t front_no_ = 0;
+    std::int64_t remeshes_ = 0;
+    std::int64_t remesh_budget_ = 0;
+    std::vector<std::int32_t> new_faces_;     // faces added by the last add/remove
+    std::vector<std::int32_t> visible_faces_;
+    std::vector<std::int32_t> near_faces_;    // front faces of the current base's search box
+    std::int64_t stat_[8] = {};
+
+    // ---- small helpers --------------------------------------------------------------------
+    static core::AdtBox domain_of(const core::SurfaceNetwork& s, Label r) {
+        core::AdtBox box;
+        for (std::size_t f = 0; f < s.face_count(); ++f) {
+            if (s.region_in[f] != r && s.region_out[f] != r) continue;
+            for (std::int32_t v : s.faces[f]) box.extend(s.point(v));
+        }
+        if (!box.is_valid()) box = core::AdtBox::of_point(V3::Zero());
+        const double d = (box.hi - box.lo).norm();
+        return box.enlarged(0.05 * d + 1e-9);
+    }
+    const double* p(std::int32_t v) const { return &xyz_[3 * static_cast<std::size_t>(v)]; }
+    V3 x(std::int32_t v) const { return V3(p(v)[0], p(v)[1], p(v)[2]); }
+    V3 face_normal(std::int32_t f) const {
+        return V3(fnormal_[3 * f], fnormal_[3 * f + 1], fnormal_[3 * f + 2]);
+    }
+    V3 node_normal(std::int32_t v) const { return V3(normal_[3 * v], normal_[3 * v + 1], normal_[3 * v + 2]); }
+    std::int32_t node_count() const { return static_cast<std::int32_t>(level_.size()); }
+    std::int32_t next_mark() {
+        if (++mark_value_ == std::numeric_limits<std::int32_t>::max()) {
+            std::fill(mark_.begin(), mark_.end(), 0);
+            mark_value_ = 1;
+        }
+        return mark_value_;
+    }
+    std::string where(std::int32_t v) const {
+        std::ostringstream s;
+        s.precision(6);
+        s << "(" << p(v)[0] << ", " << p(v)[1] << ", " << p(v)[2] << ") mm";
+        return s.str();
+    }
+
+    std::int32_t push_node(const V3& q, std::int32_t level) {
+        xyz_.insert(xyz_.end(), {q.x(), q.y(), q.z()});
+        level_.push_back(level);
+        setup_stamp_.push_back(-1);
+        normal_.insert(normal_.end(), {0.0, 0.0, 0.0});
+        h_.push_back(0.0);
+        rs_.push_back(0.0);
+        remesh_count_.push_back(0);
+        face_head_.push_back(-1);
+        tet_head_.push_back(-1);
+        mark_.push_back(0);
+        return node_count() - 1;
+    }
+    void pop_node() {
+        xyz_.resize(xyz_.size() - 3);
+        level_.pop_back();
+        setup_stamp_.pop_back();
+        normal_.resize(normal_.size() - 3);
+        h_.pop_back();
+        rs_.pop_back();
+        remesh_count_.pop_back();
+        face_head_.pop_back();
+        tet_head_.pop_back();
+        mark_.pop_back();
+    }
+
+    // ---- front edge length bound and face gathering ---------------------------------------
+    static int bucket_of(double len) {
+        if (!(len > 0.0)) return 0;
+        const int b = static_cast<int>(std::floor(4.0 * std::log2(len))) + kBuckets / 2;
+        return std::clamp(b, 0, kBuckets - 1);
+    }
+    void count_edge(std::int32_t u, std::int32_t v, int delta) {
+        const int b = bucket_of((x(u) - x(v)).norm());
+        edge_bucket_[b] += delta;
+        if (delta > 0) {
+            top_bucket_ = std::max(top_bucket_, b);
+        } else {
+            while (top_bucket_ > 0 && edge_bucket_[top_bucket_] == 0) --top_bucket_;
+        }
+    }
+    /// Upper bound (mm) of every front edge length.
+    double max_front_edge() const {
+        if (top_bucket_ >= kBuckets - 1) return std::numeric_limits<double>::infinity();
+        return std::exp2((top_bucket_ + 1 - kBuckets / 2) / 4.0) * 1.0001;
+    }
+    /// Every front face that can touch `box` (and some more), in a deterministic order, from
+    /// the ADT of front nodes: the nodes in the box grown by the longest front edge.
+    void gather_faces(const core::AdtBox& box, std::vector<std::int32_t>& out) {
+        out.clear();
+        adt_.query_box(box.enlarged(max_front_edge()), node_ids_);
+        if (++fmark_value_ == std::numeric_limits<std::int32_t>::max()) {
+            std::fill(fmark_.begin(), fmark_.end(), 0);
+            fmark_value_ = 1;
+        }
+        for (std::int32_t v : node_ids_)
+            for (std::int32_t k = face_head_[v]; k >= 0; k = fnext_[k]) {
+                const std::int32_t f = k / 3;
+                if (fmark_[f] == fmark_value_) continue;
+                fmark_[f] = fmark_value_;
+                out.push_back(f);
+            }
+    }
+
+    // ---- front faces ----------------------------------------------------------------------
+    std::int32_t add_face(std::int32_t a, std::int32_t b, std::int32_t c) {
+        std::int32_t f;
+        if (!free_faces_.empty()) {
+            f = free_faces_.back();
+            free_faces_.pop_back();
+        } else {
+            f = static_cast<std::int32_t>(fv_.size());
+            fv_.push_back({});
+            fnormal_.insert(fnormal_.end(), {0.0, 0.0, 0.0});
+            farea_.push_back(0.0);
+            fnext_.insert(fnext_.end(), {-1, -1, -1});
+            fstamp_.push_back(0);
+            failed_stamp_.push_back(-1);
+            falive_.push_back(0);
+            fmark_.push_back(0);
+        }
+        fv_[f] = {a, b, c};
+        for (int k = 0; k < 3; ++k) count_edge(fv_[f][k], fv_[f][(k + 1) % 3], +1);
+        const V3 n = (x(b) - x(a)).cross(x(c) - x(a));
+        const double len = n.norm();
+        farea_[f] = 0.5 * len;
+        const V3 u = len > 0.0 ? V3(n / len) : V3::Zero();
+        fnormal_[3 * f] = u.x();
+        fnormal_[3 * f + 1] = u.y();
+        fnormal_[3 * f + 2] = u.z();
+        ++fstamp_[f];
+        falive_[f] = 1;
+        const Tri& t = fv_[f];
+        for (int k = 0; k < 3; ++k) {
+            if (face_head_[t[k]] < 0) adt_.insert(t[k], x(t[k]));  // joins the front
+            fnext_[3 * f + k] = face_head_[t[k]];
+            face_head_[t[k]] = 3 * f + k;
+        }
+        ++front_size_;
+        return f;
+    }
+
+    void remove_face(std::int32_t f) {
+        const Tri t = fv_[f];
+        for (int k = 0; k < 3; ++k) {
+            std::int32_t* link = &face_head_[t[k]];
+            while (*link != 3 * f + k) {
+                FM_CHECK(*link >= 0);
+                link = &fnext_[*link];
+            }
+            *link = fnext_[3 * f + k];
+            if (face_head_[t[k]] < 0) adt_.remove(t[k]);  // leaves the front
+            count_edge(t[k], t[(k + 1) % 3], -1);
+        }
+        falive_[f] = 0;
+        ++fstamp_[f];
+        free_faces_.push_back(f);
+        --front_size_;
+    }
+
+    /// The front face with vertex set {a, b, c}, -1 if none.
+    std::int32_t find_face(std::int32_t a, std::int32_t b, std::int32_t c) const {
+        for (std::int32_t k = face_head_[a]; k >= 0; k = fnext_[k]) {
+            const Tri& t = fv_[k / 3];
+            const bool hb = t[0] == b || t[1] == b || t[2] == b;
+            const bool hc = t[0] == c || t[1] == c || t[2] == c;
+            if (hb && hc) return k / 3;
+        }
+        return -1;
+    }
+
+    /// True when u-v is an edge of the front.
+    bool is_front_edge(std::int32_t u, std::int32_t v) const {
+        for (std::int32_t k = face_head_[u]; k >= 0; k = fnext_[k]) {
+            const Tri& t = fv_[k / 3];
+            if (t[0] == v || t[1] == v || t[2] == v) return true;
+        }
+        return false;
+    }
+
+    // ---- tets -----------------------------------------------------------------------------
+    /// Adds the VTK-positive tet (a, b, c, d) and toggles its faces on the front (§3.1.4
+    /// step 5): a face already on the front (pointing into the tet) leaves it, any other
+    /// face joins it pointing away from the tet.
+    void add_tet(std::int32_t a, std::int32_t b, std::int32_t c, std::int32_t d) {
+        const std::int32_t t = static_cast<std::int32_t>(tv_.size());
+        tv_.push_back({a, b, c, d});
+        tnext_.insert(tnext_.end(), {-1, -1, -1, -1});
+        tfront_.push_back(front_no_);
+        talive_.push_back(1);
+        ++alive_tets_;
+        const Tet& v = tv_[t];
+        for (int k = 0; k < 4; ++k) {
+            tnext_[4 * t + k] = tet_head_[v[k]];
+            tet_head_[v[k]] = 4 * t + k;
+        }
+        new_faces_.clear();
+        for (const auto& lf : kTetFace) {
+            const std::int32_t x0 = v[lf[0]], x1 = v[lf[1]], x2 = v[lf[2]];
+            const std::int32_t f = find_face(x0, x1, x2);
+            if (f >= 0) {
+                FM_CHECK(!same_cycle(fv_[f], x0, x1, x2));
+                remove_face(f);
+            } else {
+                new_faces_.push_back(add_face(x0, x1, x2));
+            }
+        }
+    }
+
+    /// Removes tet t (§3.2): its faces toggle back.
+    void remove_tet(std::int32_t t) {
+        FM_CHECK(talive_[t]);
+        talive_[t] = 0;
+        --alive_tets_;
+        const Tet v = tv_[t];
+        for (const auto& lf : kTetFace) {
+            const std::int32_t x0 = v[lf[0]], x1 = v[lf[1]], x2 = v[lf[2]];
+            const std::int32_t f = find_face(x0, x1, x2);
+            if (f >= 0) {
+                FM_CHECK(same_cycle(fv_[f], x0, x1, x2));
+                remove_face(f);
+            } else {
+                new_faces_.push_back(add_face(x0, x2, x1));
+            }
+        }
+    }
+
+    // ---- exact validity (predicates decide) -----------------------------------------------
+    /// True when the closed segment (s0, s1) meets the closed triangle (t0, t1, t2) anywhere
+    /// but at their shared vertices. Exact.
+    bool improper_intersection(std::int32_t s0, std::int32_t s1, std::int32_t t0, std::int32_t t1,
+                               std::int32_t t2) const {
+        const bool in0 = s0 == t0 || s0 == t1 || s0 == t2;
+        const bool in1 = s1 == t0 || s1 == t1 || s1 == t2;
+        if (in0 && in1) return false;
+        if (!in0 && !in1) {
+            for (int a = 0; a < 3; ++a) {  // cheap box rejection
+                const double smin = std::min(p(s0)[a], p(s1)[a]);
+                const double smax = std::max(p(s0)[a], p(s1)[a]);
+                const double tmin = std::min({p(t0)[a], p(t1)[a], p(t2)[a]});
+                const double tmax = std::max({p(t0)[a], p(t1)[a], p(t2)[a]});
+                if (smax < tmin || smin > tmax) return false;
+            }
+            return core::segment_intersects_triangle(p(s0), p(s1), p(t0), p(t1), p(t2));
+        }
+        const std::int32_t v = in0 ? s0 : s1, e = in0 ? s1 : s0;
+        // Sharing vertex v, the segment can meet the triangle elsewhere only in its plane.
+        if (core::orient3d(p(t0), p(t1), p(t2), p(e)) != 0) return false;
+        if (core::segment_intersects_triangle(p(e), p(e), p(t0), p(t1), p(t2))) return true;
+        std::int32_t o[2], n = 0;
+        for (std::int32_t w : {t0, t1, t2})
+            if (w != v) o[n++] = w;
+        return core::segment_intersects_triangle(p(v), p(e), p(o[0]), p(o[1]), p(o[1]));
+    }
+
+    /// The exact validity test of a candidate tet (a, b, c, q) on base face `base`: positive
+    /// volume, no face pointing the wrong way, no front node in the closed tet, no front edge
+    /// through a new face, no new edge through a front face (covers the paper's point-in-
+    /// tetrahedron, over-the-manifold and edge-face intersection tests (1) and (2) exactly).
+    /// The front faces examined are those of `near` (an ADT query over a box holding the tet)
+    /// whose boxes meet the tet's box: every front face that can touch the tet, a superset
+    /// of the paper's nodes Q_v in the sphere of Eq. 9.
+    bool is_valid_tet(std::int32_t base, std::int32_t a, std::int32_t b, std::int32_t c,
+                      std::int32_t q, const std::vector<std::int32_t>& near) {
+        if (core::orient3d(p(a), p(b), p(c), p(q)) != -1) return false;
+        const std::int32_t tv[4] = {a, b, c, q};
+        std::int32_t existing[3];
+        bool face_new[3], edge_new[3];
+        for (int i = 0; i < 3; ++i) {
+            const std::int32_t u = tv[i], w = tv[(i + 1) % 3];
+            existing[i] = find_face(u, w, q);
+            // the outward face (u, w, q) must not already be on the front with that
+            // orientation: the tet would lie behind it
+            if (existing[i] >= 0 && same_cycle(fv_[existing[i]], u, w, q)) return false;
+            face_new[i] = existing[i] < 0;
+            edge_new[i] = !is_front_edge(tv[i], q);
+        }
+        // reference signs of the opposite vertices for the point-in-tet test
+        static constexpr int kF[4][4] = {{0, 1, 2, 3}, {0, 1, 3, 2}, {1, 2, 3, 0}, {2, 0, 3, 1}};
+        int ref[4];
+        for (int i = 0; i < 4; ++i)
+            ref[i] = core::orient3d(p(tv[kF[i][0]]), p(tv[kF[i][1]]), p(tv[kF[i][2]]),
+                                    p(tv[kF[i][3]]));
+        double lo[3], hi[3];
+        for (int k = 0; k < 3; ++k) {
+            lo[k] = std::min({p(a)[k], p(b)[k], p(c)[k], p(q)[k]});
+            hi[k] = std::max({p(a)[k], p(b)[k], p(c)[k], p(q)[k]});
+        }
+        // Outward face planes of the tet, for a conservative filter in doubles: a triangle
+        // whose three nodes lie beyond one plane by far more than the rounding error cannot
+        // touch the tet; everything else goes to the exact predicates.
+        V3 pn[4];
+        double pd[4], ptol[4];
+        const double diam = (V3(hi[0], hi[1], hi[2]) - V3(lo[0], lo[1], lo[2])).norm() +
+                            max_front_edge();
+        const double scale = diam + V3(p(a)[0], p(a)[1], p(a)[2]).cwiseAbs().maxCoeff();
+        for (int i = 0; i < 4; ++i) {
+            const V3 A = x(tv[kF[i][0]]), B = x(tv[kF[i][1]]), C = x(tv[kF[i][2]]);
+            pn[i] = (B - A).cross(C - A);
+            if (pn[i].dot(x(tv[kF[i][3]]) - A) > 0.0) pn[i] = -pn[i];
+            pd[i] = pn[i].dot(A);
+            ptol[i] = 1e-9 * pn[i].norm() * scale;
+        }
+        const std::int32_t stamp = next_mark();
+        for (std::int32_t v : tv) mark_[v] = stamp;
+        for (std::int32_t f : near) {
+            if (f == base || f == existing[0] || f == existing[1] || f == existing[2]) continue;
+            const Tri& t = fv_[f];
+            bool apart = false;
+            for (int k = 0; k < 3 && !apart; ++k) {
+                const double fmin = std::min({p(t[0])[k], p(t[1])[k], p(t[2])[k]});
+                const double fmax = std::max({p(t[0])[k], p(t[1])[k], p(t[2])[k]});
+                apart = fmax < lo[k] || fmin > hi[k];
+            }
+            for (int i = 0; i < 4 && !apart; ++i) {
+                apart = true;
+                for (int k = 0; k < 3 && apart; ++k)
+                    apart = pn[i].dot(x(t[k])) - pd[i] > ptol[i];
+            }
+            if (apart) continue;
+            for (std::int32_t w : t) {
+                if (mark_[w] == stamp) continue;
+                mark_[w] = stamp;
+                bool inside = true;
+                for (int i = 0; i < 4 && inside; ++i) {
+                    const int s = core::orient3d(p(tv[kF[i][0]]), p(tv[kF[i][1]]),
+                                                 p(tv[kF[i][2]]), p(w));
+                    inside = s == 0 || s == ref[i];
+                }
+                if (inside) return false;
+            }
+            for (int e = 0; e < 3; ++e) {
+                const std::int32_t e0 = t[e], e1 = t[(e + 1) % 3];
+                for (int i = 0; i < 3; ++i)
+                    if (face_new[i] && improper_intersection(e0, e1, tv[i], tv[(i + 1) % 3], q))
+                        return false;
+            }
+            for (int i = 0; i < 3; ++i)
+                if (edge_new[i] && improper_intersection(tv[i], q, t[0], t[1], t[2])) return false;
+        }
+        return true;
+    }
+
+    // ---- paper's quality tests of step 4 (doubles: they only rank and filter) -------------
+    struct Base {
+        std::int32_t f = -1;
+        std::int32_t a[3] = {-1, -1, -1};
+        V3 A[3];
+        V3 n;            // unit normal N_k
+        double area = 0;  // a_k
+        double h = 0;     // h_k, Eq. 8
+        double eta = 0;   // Eq. 2
+        V3 xm, xo, xc;    // centre, reference point, Eq. 11 centre
+        double max_b = 0;  // max |x_ck B_ki|
+    };
+
+    bool passes_paper_tests(const Base& bk, std::int32_t q) const {
+        const V3 P = x(q);
+        // Volume test
+        const double vol = core::tet_signed_volume(bk.A[0], bk.A[1], bk.A[2], P);
+        if (!(vol > 0.01 * bk.h * bk.area)) return false;
+        // Length test
+        double limit = 2.0 * bk.h;
+        if (bk.eta > 0.6) limit = std::max(limit, bk.max_b);
+        if ((bk.xm - P).norm() >= limit) return false;
+        const double sin_min = std::sin(params_.min_angle_deg * kDegToRad);
+        const double cos_min = std::cos(params_.min_angle_deg * kDegToRad);
+        for (int i = 0; i < 3; ++i) {
+            const std::int32_t ai = bk.a[i], aj = bk.a[(i + 1) % 3];
+            const V3& Ai = bk.A[i];
+            const V3& Aj = bk.A[(i + 1) % 3];
+            const bool edge_new = !is_front_edge(ai, q);
+            const bool face_new = find_face(ai, aj, q) < 0;
+            if (edge_new) {
+                const V3 d = (P - Ai).normalized();
+                // Over the manifold test: P above the plane of some front face at A_ki (the
+                // exact tests of is_valid_tet decide validity; this one only filters)
+                bool over = false;
+                for (std::int32_t k = face_head_[ai]; k >= 0 && !over; k = fnext_[k])
+                    over = d.dot(face_normal(k / 3)) > 0.0;
+                if (!over) return false;
+                // Edge-face angle test: edge A_ki P against the front faces at A_ki
+                for (std::int32_t k = face_head_[ai]; k >= 0; k = fnext_[k]) {
+                    const std::int32_t g = k / 3;
+                    const Tri& t = fv_[g];
+                    const int c = k % 3;
+                    const V3 ng = face_normal(g);
+                    const double s = d.dot(ng);
+                    if (std::abs(s) >= sin_min) continue;
+                    const V3 dp = d - s * ng;
+                    const V3 u = x(t[(c + 1) % 3]) - Ai, w = x(t[(c + 2) % 3]) - Ai;
+                    if (u.cross(dp).dot(ng) >= 0.0 && dp.cross(w).dot(ng) >= 0.0) return false;
+                }
+            }
+            if (face_new) {
+                const V3 e = (Aj - Ai).normalized();
+                V3 up = P - Ai;
+                up -= up.dot(e) * e;
+                const double upl = up.norm();
+                if (upl == 0.0) return false;
+                up /= upl;
+                // Face-face (dihedral) angle test against every front face on edge A_ki A_kj
+                for (std::int32_t k = face_head_[ai]; k >= 0; k = fnext_[k]) {
+                    const std::int32_t g = k / 3;
+                    if (g == bk.f) continue;
+                    const Tri& t = fv_[g];
+                    if (t[0] != aj && t[1] != aj && t[2] != aj) continue;
+                    const std::int32_t bq = t[0] != ai && t[0] != aj ? t[0]
+                                            : t[1] != ai && t[1] != aj ? t[1] : t[2];
+                    if (bq == q) continue;
+                    V3 vp = x(bq) - Ai;
+                    vp -= vp.dot(e) * e;
+                    const double vpl = vp.norm();
+                    if (vpl == 0.0 || up.dot(vp / vpl) >= cos_min) return false;
+                }
+                // Edge-face angle test: the new face against the front edges at A_ki, A_kj
+                const V3 nf = (Aj - Ai).cross(P - Ai).normalized();
+                for (int end = 0; end < 2; ++end) {
+                    const std::int32_t o = end == 0 ? ai : aj;
+                    const V3 O = end == 0 ? Ai : Aj;
+                    const V3 r1 = (end == 0 ? Aj : Ai) - O, r2 = P - O;
+                    for (std::int32_t k = face_head_[o]; k >= 0; k = fnext_[k]) {
+                        const Tri& t = fv_[k / 3];
+                        const int c = k % 3;
+                        for (int side = 1; side <= 2; ++side) {
+                            const std::int32_t xq = t[(c + side) % 3];
+                            if (xq == ai || xq == aj || xq == q) continue;
+                            const V3 d = (x(xq) - O).normalized();
+                            const double s = d.dot(nf);
+                            if (std::abs(s) >= sin_min) continue;
+                            const V3 dp = d - s * nf;
+                            // inside the face's wedge at O (between r1 and r2)?
+                            const V3 c12 = r1.cross(r2);
+                            if (r1.cross(dp).dot(c12) >= 0.0 && dp.cross(r2).dot(c12) >= 0.0)
+                                return false;
+                        }
+                    }
+                }
+            }
+        }
+        return true;
+    }
+
+    // ---- §3.1.3 n-th level front setup ----------------------------------------------------
+    void setup_level();
+    bool is_visible(std::int32_t j, std::int32_t i);
+
+    // ---- §3.1.4 / §3.1.5 -------------------------------------------------------------------
+    bool is_active(std::int32_t v) const { return setup_stamp_[v] == front_no_; }
+    bool is_eligible(std::int32_t f, int stage) const {
+        const Tri& t = fv_[f];
+        const int n = is_active(t[0]) + is_active(t[1]) + is_active(t[2]);
+        return stage == 1 ? n == 3 : n >= 1;
+    }
+    Base make_base(std::int32_t f, bool active_only) const;
+    bool try_base(std::int32_t f, bool active_only, bool relaxed);
+    void run_stage(int stage, bool allow_remesh, std::int64_t& attempts);
+    bool remesh_around(std::int32_t f);
+    void init_front(const core::SurfaceNetwork& surface);
+    void closing_round(std::int32_t rings);
+    RegionResult result() const;
+    [[noreturn]] void fail(const std::string& why) const;
+};
+
+void RegionMesher::init_front(const core::SurfaceNetwork& s) {
+    // §3.1.2: the region's closed boundary, faces pointing INTO the region (Fig. 2): faces with
+    // region_in == R reversed, faces with region_out == R as they are.
+    std::vector<std::int32_t> local(s.vertex_count(), -1);
+    std::vector<std::int32_t> faces;
+    for (std::size_t f = 0; f < s.face_count(); ++f) {
+        const bool in = s.region_in[f] == region_, out = s.region_out[f] == region_;
+        if (in == out) continue;  // not ours, or an inner face of the region (cancels)
+        faces.push_back(static_cast<std::int32_t>(f));
+        for (std::int32_t v : s.faces[f]) local[static_cast<std::size_t>(v)] = 0;
+    }
+    for (std::size_t v = 0; v < local.size(); ++v) {
+        if (local[v] < 0) continue;
+        local[v] = push_node(s.point(static_cast<std::int32_t>(v)), 0);
+        global_of_local_.push_back(static_cast<std::int32_t>(v));
+    }
+    boundary_nodes_ = node_count();
+    for (std::int32_t f : faces) {
+        const auto& t = s.faces[static_cast<std::size_t>(f)];
+        std::int32_t a = local[t[0]], b = local[t[1]], c = local[t[2]];
+        if (s.region_in[f] == region_) std::swap(b, c);
+        if (a == b || b == c || a == c)
+            FM_THROW(InputError, "region " + std::to_string(region_) + ": face " +
+                                     std::to_string(f) + " has a repeated vertex");
+        const std::int32_t g = find_face(a, b, c);
+        if (g >= 0) {
+            if (same_cycle(fv_[g], a, b, c))
+                FM_THROW(InputError, "region " + std::to_string(region_) + ": face " +
+                                         std::to_string(f) + " appears twice near " + where(a));
+            remove_face(g);  // both sides of a zero-thickness sheet: nothing to mesh
+            continue;
+        }
+        add_face(a, b, c);
+    }
+    remesh_budget_ = 1000 + 2 * static_cast<std::int64_t>(faces.size());
+}
+
+bool RegionMesher::is_visible(std::int32_t j, std::int32_t i) {
+    // Eq. 5 visibility: i lies in front of j and no front face separates them.
+    if ((x(i) - x(j)).dot(node_normal(j)) <= 0.0) return false;
+    core::AdtBox box;
+    box.extend(x(i));
+    box.extend(x(j));
+    gather_faces(box, visible_faces_);
+    for (std::int32_t f : visible_faces_) {
+        const Tri& t = fv_[f];
+        if (t[0] == i || t[1] == i || t[2] == i || t[0] == j || t[1] == j || t[2] == j) continue;
+        if (core::segment_intersects_triangle(p(j), p(i), p(t[0]), p(t[1]), p(t[2]))) return false;
+    }
+    return true;
+}
+
+void RegionMesher::setup_level() {
+    const std::int32_t n = node_count();
+    std::vector<double> nsum(3 * static_cast<std::size_t>(n), 0.0), asum(n, 0.0), rs(n, 0.0),
+        ho(n, 0.0), c(n, 0.0);
+    std::vector<std::int32_t> cnt(n, 0), front_nodes;
+    for (std::int32_t f = 0; f < static_cast<std::int32_t>(fv_.size()); ++f) {
+        if (!falive_[f]) continue;
+        const Tri& t = fv_[f];
+        for (int k = 0; k < 3; ++k) {
+            const std::int32_t v = t[k];
+            for (int a = 0; a < 3; ++a) nsum[3 * v + a] += fnormal_[3 * f + a];
+            asum[v] += farea_[f];
+            ++cnt[v];
+            rs[v] = std::max(rs[v], (x(t[(k + 1) % 3]) - x(v)).norm());
+            rs[v] = std::max(rs[v], (x(t[(k + 2) % 3]) - x(v)).norm());
+        }
+    }
+    for (std::int32_t v = 0; v < n; ++v) {
+        if (cnt[v] == 0) continue;
+        front_nodes.push_back(v);
+        setup_stamp_[v] = front_no_;
+        V3 s(nsum[3 * v], nsum[3 * v + 1], nsum[3 * v + 2]);
+        const double l = s.norm();
+        s = l > 1e-12 ? V3(s / l) : face_normal(face_head_[v] / 3);  // Eq. 3
+        for (int a = 0; a < 3; ++a) normal_[3 * v + a] = s[a];
+        ho[v] = 1.24 * params_.stretching * std::sqrt(asum[v] / cnt[v]);  // Eq. 4
+    }
+    // Eq. 5: influence regions (x_j, 3 r_sj), found through the ADT of front nodes.
+    std::vector<std::int32_t> ids;
+    for (std::int32_t j : front_nodes) {
+        const double R = 3.0 * rs[j];
+        adt_.query_sphere(x(j), R, ids);
+        const V3 Nj = node_normal(j);
+        {
+            for (std::int32_t i : ids) {
+                const double d = (x(i) - x(j)).norm();
+                if (d > R || d == 0.0 || !(rs[j] < rs[i])) continue;
+                if (node_normal(i).dot(Nj) >= 0.5) continue;  // angle must exceed 60 degrees
+                if (!is_visible(j, i)) continue;
+                const double coji = 0.05 * (3.0 * rs[i] / d) * (ho[j] - ho[i]) / ho[j];
+                const double cji = std::min(std::max(coji, -0.6), 0.5);
+                if (std::abs(cji) > std::abs(c[i])) c[i] = cji;
+                const double coij = 0.05 * (3.0 * rs[j] / d) * (ho[i] - ho[j]) / ho[i];
+                const double cij = std::min(std::max(coij, -0.6), 0.5);
+                if (std::abs(cij) > std::abs(c[j])) c[j] = cij;
+            }
+        }
+    }
+    for (std::int32_t v : front_nodes) {
+        h_[v] = (1.0 + c[v]) * ho[v];                   // Eq. 6
+        rs_[v] = std::max(1.0 + c[v], 1.0) * rs[v];     // Eq. 7
+    }
+    // Laplacian smoothing of h'_o over the front edges (each edge seen from its two faces).
+    std::vector<double> sum(n, 0.0);
+    std::vector<std::int32_t> num(n, 0);
+    for (int it = 0; it < params_.height_smoothing_iterations; ++it) {
+        for (std::int32_t v : front_nodes) {
+            sum[v] = 0.0;
+            num[v] = 0;
+        }
+        for (std::int32_t f = 0; f < static_cast<std::int32_t>(fv_.size()); ++f) {
+            if (!falive_[f]) continue;
+            const Tri& t = fv_[f];
+            for (int k = 0; k < 3; ++k) {
+                sum[t[k]] += h_[t[(k + 1) % 3]] + h_[t[(k + 2) % 3]];
+                num[t[k]] += 2;
+            }
+        }
+        for (std::int32_t v : front_nodes) h_[v] = 0.5 * h_[v] + 0.5 * sum[v] / num[v];
+    }
+}
+
+RegionMesher::Base RegionMesher::make_base(std::int32_t f, bool active_only) const {
+    Base bk;
+    bk.f = f;
+    const Tri& t = fv_[f];
+    for (int i = 0; i < 3; ++i) {
+        bk.a[i] = t[i];
+        bk.A[i] = x(t[i]);
+    }
+    bk.n = face_normal(f);
+    bk.area = farea_[f];
+    // Eq. 8 from the nodes on the n-th level front (§3.1.5); other nodes fall back on the
+    // height they last had, or on Eq. 4 of this face alone.
+    double hs = 0.0;
+    int hn = 0;
+    for (int i = 0; i < 3; ++i) {
+        if (active_only && !is_active(t[i])) continue;
+        if (h_[t[i]] > 0.0) {
+            hs += h_[t[i]];
+            ++hn;
+        }
+    }
+    const double hmean = hn > 0 ? hs / hn : 1.24 * params_.stretching * std::sqrt(bk.area);
+    bk.h = std::max(hmean, 0.5 * std::sqrt(bk.area));  // Eq. 8
+    bk.eta = core::triangle_skewness(bk.A[0], bk.A[1], bk.A[2]);
+    bk.xm = (bk.A[0] + bk.A[1] + bk.A[2]) / 3.0;
+    bk.xo = bk.xm;
+    if (bk.eta > 0.5) {  // Fig. 6b: the centre of the longest edge
+        int best = 0;
+        double lmax = -1.0;
+        for (int i = 0; i < 3; ++i) {
+            const double l = (bk.A[(i + 1) % 3] - bk.A[i]).squaredNorm();
+            if (l > lmax) {
+                lmax = l;
+                best = i;
+            }
+        }
+        bk.xo = 0.5 * (bk.A[best] + bk.A[(best + 1) % 3]);
+    }
+    const V3 xp = bk.xo + bk.h * bk.n;  // Eq. 10, g = 1
+    bk.xc = 0.4 * bk.xm + 0.6 * xp;     // Eq. 11
+    // B_ki: third node of a neighbour across each edge (length test)
+    for (int i = 0; i < 3; ++i) {
+        const std::int32_t u = t[i], w = t[(i + 1) % 3];
+        for (std::int32_t k = face_head_[u]; k >= 0; k = fnext_[k]) {
+            const std::int32_t g = k / 3;
+            if (g == f) continue;
+            const Tri& s = fv_[g];
+            if (s[0] != w && s[1] != w && s[2] != w) continue;
+            for (std::int32_t b : s)
+                if (b != u && b != w) bk.max_b = std::max(bk.max_b, (x(b) - bk.xc).norm());
+            break;
+        }
+    }
+    return bk;
+}
+
+/// §3.1.4 steps 1-4 for base f: candidates from the ADT in the sphere of Eq. 11 (w = 1..10)
+/// ordered by Eq. 12, the new point of Eq. 10 (g = 0.7^i, i = 0..3) after those of w = 1.
+/// Failing candidates fail again for a larger w, so each is tested once: first those of
+/// w = 1, then the new points, then those of w = 2..10 in order of (w, Eq. 12).
+/// `relaxed` (closing phase) drops the paper's quality filters but keeps every exact test.
+/// One ADT query per sphere fetches the front faces the validity tests of every candidate
+/// inside it need (the tet lies in the box of the base and the sphere).
+bool RegionMesher::try_base(std::int32_t f, bool active_only, bool relaxed) {
+    const Base bk = make_base(f, active_only);
+    static constexpr double kGs[4] = {1.0, 0.7, 0.49, 0.343};  // g = 0.7^i, Eq. 10
+    const double r1 = 1.1 * bk.h, r10 = std::pow(1.1, 10) * bk.h;  // Eq. 11, w = 1 and 10
+    const double rrel = std::max(3.0 * bk.h, 2.0 * std::sqrt(bk.area) + bk.max_b);
+    core::AdtBox base_box;
+    for (int i = 0; i < 3; ++i) base_box.extend(bk.A[i]);
+    for (double g : kGs) base_box.extend(bk.xo + g * bk.h * bk.n);
+    if (relaxed)
+        for (double g : {0.25, 0.1}) base_box.extend(bk.xo + g * bk.h * bk.n);
+
+    struct Cand {
+        double key0, key1;
+        std::int32_t id;
+    };
+    std::vector<Cand> cands;
+    std::vector<std::int32_t>& near = near_faces_;
+    const bool small_front = relaxed && front_size_ <= 64;
+    V3 centroid = V3::Zero();
+    int ncent = 0;
+    // Candidates in the shell rmin < |x - x_ck| <= r (all front nodes above the base for a
+    // small closing front); fills `near` with the front faces of the search box.
+    auto collect = [&](double rmin, double r) {
+        cands.clear();
+        if (small_front) {
+            near.clear();
+            for (std::int32_t g = 0; g < static_cast<std::int32_t>(fv_.size()); ++g)
+                if (falive_[g]) near.push_back(g);
+        } else {
+            core::AdtBox box = core::AdtBox::of_point(bk.xc).enlarged(r);
+            box.extend(base_box.lo);
+            box.extend(base_box.hi);
+            gather_faces(box, near);
+            // keep the faces that can touch a candidate tet (inside `box`)
+            std::size_t kept = 0;
+            for (std::int32_t g : near) {
+                const Tri& t = fv_[g];
+                bool apart = false;
+                for (int k = 0; k < 3 && !apart; ++k) {
+                    const double fmin = std::min({p(t[0])[k], p(t[1])[k], p(t[2])[k]});
+                    const double fmax = std::max({p(t[0])[k], p(t[1])[k], p(t[2])[k]});
+                    apart = fmax < box.lo[k] || fmin > box.hi[k];
+                }
+                if (!apart) near[kept++] = g;
+            }
+            near.resize(kept);
+        }
+        const std::int32_t stamp = next_mark();
+        for (int i = 0; i < 3; ++i) mark_[bk.a[i]] = stamp;
+        for (std::int32_t g : near) {
+            for (std::int32_t q : fv_[g]) {
+                if (mark_[q] == stamp) continue;
+                mark_[q] = stamp;
+                const double d = (x(q) - bk.xc).norm();
+                if (!small_front && (d > r || d <= rmin)) continue;
+                if (core::orient3d(p(bk.a[0]), p(bk.a[1]), p(bk.a[2]), p(q)) != -1) continue;
+                const double eps = core::tet_skewness(bk.A[0], bk.A[1], bk.A[2], x(q));
+                if (relaxed) {
+                    centroid += x(q);
+                    ++ncent;
+                    cands.push_back({eps, d, q});
+                } else {
+                    // w: the first sphere of Eq. 11 holding q; Eq. 12 orders within it
+                    const double w = std::max(
+                        1.0, std::ceil(std::log(std::max(d / bk.h, 1e-300)) / std::log(1.1) - 1e-12));
+                    cands.push_back({w, (eps + 0.1) * d, q});
+                }
+            }
+        }
+        std::sort(cands.begin(), cands.end(), [](const Cand& l, const Cand& r2) {
+            if (l.key0 != r2.key0) return l.key0 < r2.key0;
+            if (l.key1 != r2.key1) return l.key1 < r2.key1;
+            return l.id < r2.id;
+        });
+    };
+    const double min_vol = 1e-6 * bk.area * std::sqrt(bk.area);
+    auto try_existing = [&](std::int32_t q) {
+        if (relaxed) {
+            if (!(core::tet_signed_volume(bk.A[0], bk.A[1], bk.A[2], x(q)) > min_vol)) return false;
+        } else if (!passes_paper_tests(bk, q)) {
+            ++stat_[2];
+            return false;
+        }
+        if (!is_valid_tet(f, bk.a[0], bk.a[1], bk.a[2], q, near)) {
+            ++stat_[3];
+            return false;
+        }
+        add_tet(bk.a[0], bk.a[1], bk.a[2], q);
+        ++stat_[4];
+        return true;
+    };
+    auto try_new = [&](const V3& P) {
+        const std::int32_t q = push_node(P, front_no_ + 1);
+        bool ok = relaxed ? core::tet_signed_volume(bk.A[0], bk.A[1], bk.A[2], P) > min_vol
+                          : passes_paper_tests(bk, q);
+        if (!ok) ++stat_[2];
+        const bool valid = ok && is_valid_tet(f, bk.a[0], bk.a[1], bk.a[2], q, near);
+        if (ok && !valid) ++stat_[3];
+        if (!valid) {
+            pop_node();
+            return false;
+        }
+        add_tet(bk.a[0], bk.a[1], bk.a[2], q);
+        ++stat_[5];
+        return true;
+    };
+    if (relaxed) {
+        collect(-1.0, rrel);
+        for (const Cand& c : cands)
+            if (try_existing(c.id)) return true;
+        for (double g : {1.0, 0.7, 0.49, 0.343, 0.25, 0.1})
+            if (try_new(bk.xo + g * bk.h * bk.n)) return true;
+        if (ncent > 0) {
+            // centre of the base and the nodes that see it: a star point for small cavities
+            const V3 c = (centroid + bk.A[0] + bk.A[1] + bk.A[2]) / (ncent + 3);
+            if (try_new(c)) return true;
+        }
+        return false;
+    }
+    collect(-1.0, r1);  // w = 1
+    for (const Cand& c : cands)
+        if (try_existing(c.id)) return true;
+    for (double g : kGs)
+        if (try_new(bk.xo + g * bk.h * bk.n)) return true;
+    collect(r1, r10);  // w = 2 .. 10
+    for (const Cand& c : cands)
+        if (try_existing(c.id)) return true;
+    return false;
+}
+
+/// §3.2 local remeshing around base f: removes the tets of the n-th level touching its nodes
+/// (all local tets when there are none), a ring more for every earlier remeshing there.
+bool RegionMesher::remesh_around(std::int32_t f) {
+    if (remeshes_ >= remesh_budget_) return false;
+    const Tri t = fv_[f];
+    std::int32_t r = 0;
+    for (std::int32_t v : t) r = std::max(r, remesh_count_[v]);
+    if (r >= params_.max_remesh_per_node) return false;
+    for (std::int32_t v : t) ++remesh_count_[v];
+    std::vector<std::int32_t> nodes(t.begin(), t.end()), tets;
+    for (int ring = 0; ring <= r; ++ring) {
+        for (int pass = 0; pass < 2; ++pass) {
+            tets.clear();
+            for (std::int32_t v : nodes)
+                for (std::int32_t k = tet_head_[v]; k >= 0; k = tnext_[k]) {
+                    const std::int32_t tt = k / 4;
+                    if (talive_[tt] && (pass == 1 || tfront_[tt] == front_no_)) tets.push_back(tt);
+                }
+            if (!tets.empty()) break;
+        }
+        std::sort(tets.begin(), tets.end());
+        tets.erase(std::unique(tets.begin(), tets.end()), tets.end());
+        if (ring < r) {
+            for (std::int32_t tt : tets) nodes.insert(nodes.end(), tv_[tt].begin(), tv_[tt].end());
+            std::sort(nodes.begin(), nodes.end());
+            nodes.erase(std::unique(nodes.begin(), nodes.end()), nodes.end());
+        }
+    }
+    if (tets.empty()) return false;
+    ++remeshes_;
+    std::vector<std::int32_t> restored;
+    for (std::int32_t tt : tets) {
+        new_faces_.clear();
+        remove_tet(tt);
+        restored.insert(restored.end(), new_faces_.begin(), new_faces_.end());
+    }
+    new_faces_ = restored;
+    return true;
+}
+
+void RegionMesher::run_stage(int stage, bool allow_remesh, std::int64_t& attempts) {
+    struct Item {
+        double area;
+        std::int32_t f, stamp;
+        bool operator<(const Item& o) const {  // priority_queue: largest first -> invert
+            if (area != o.area) return area > o.area;
+            return f > o.f;
+        }
+    };
+    std::priority_queue<Item> queue;
+    auto push = [&](std::int32_t f) {
+        if (falive_[f] && is_eligible(f, stage)) queue.push({farea_[f], f, fstamp_[f]});
+    };
+    for (std::int32_t f = 0; f < static_cast<std::int32_t>(fv_.size()); ++f) push(f);
+    const std::int64_t max_attempts = 50 * static_cast<std::int64_t>(fv_.size()) + 100000;
+    std::int64_t local_attempts = 0;
+    while (!queue.empty()) {
+        const Item it = queue.top();
+        queue.pop();
+        const std::int32_t f = it.f;
+        if (!falive_[f] || fstamp_[f] != it.stamp || failed_stamp_[f] == fstamp_[f]) continue;
+        if (!is_eligible(f, stage)) continue;
+        if (++local_attempts > max_attempts) break;
+        ++attempts;
+        ++stat_[0];
+        if (try_base(f, stage == 2, false)) {
+            ++stat_[5 + stage];
+            for (std::int32_t g : new_faces_) push(g);
+            continue;
+        }
+        ++stat_[1];
+        // w reached 10: §3.2 local remeshing, else leave the base for later
+        if (allow_remesh && remesh_around(f)) {
+            std::vector<std::int32_t> restored = new_faces_;
+            for (std::int32_t g : restored) push(g);
+            if (falive_[f]) push(f);
+            continue;
+        }
+        if (falive_[f]) failed_stamp_[f] = fstamp_[f];
+    }
+}
+
+void RegionMesher::closing_round(std::int32_t rings) {
+    // Enlarge every cavity: remove `rings` rings of tets around the nodes left on the front.
+    if (rings > 0) {
+        std::vector<std::int32_t> nodes;
+        for (std::int32_t f = 0; f < static_cast<std::int32_t>(fv_.size()); ++f)
+            if (falive_[f]) nodes.insert(nodes.end(), fv_[f].begin(), fv_[f].end());
+        std::vector<std::int32_t> tets;
+        for (std::int32_t ring = 0; ring < rings; ++ring) {
+            std::sort(nodes.begin(), nodes.end());
+            nodes.erase(std::unique(nodes.begin(), nodes.end()), nodes.end());
+            tets.clear();
+            for (std::int32_t v : nodes)
+                for (std::int32_t k = tet_head_[v]; k >= 0; k = tnext_[k])
+                    if (talive_[k / 4]) tets.push_back(k / 4);
+            std::sort(tets.begin(), tets.end());
+            tets.erase(std::unique(tets.begin(), tets.end()), tets.end());
+            for (std::int32_t t : tets) nodes.insert(nodes.end(), tv_[t].begin(), tv_[t].end());
+        }
+        for (std::int32_t t : tets) {
+            new_faces_.clear();
+            remove_tet(t);
+        }
+        // refill with the layered front first (good elements), then relaxed
+        ++front_no_;
+        setup_level();
+        std::int64_t attempts = 0;
+        run_stage(1, false, attempts);
+        run_stage(2, false, attempts);
+    }
+    // Relaxed filling: any valid tet, smallest faces first; bounded passes.
+    for (int pass = 0; pass < 4 && front_size_ > 0; ++pass) {
+        bool progress = false;
+        std::vector<std::pair<double, std::int32_t>> order;
+        for (std::int32_t f = 0; f < static_cast<std::int32_t>(fv_.size()); ++f)
+            if (falive_[f]) order.push_back({farea_[f], f});
+        std::sort(order.begin(), order.end());
+        std::vector<std::int32_t> stamps(fv_.size());
+        for (auto [a, f] : order) stamps[f] = fstamp_[f];
+        for (auto [a, f] : order) {
+            (void)a;
+            if (f >= static_cast<std::int32_t>(stamps.size()) || !falive_[f] ||
+                fstamp_[f] != stamps[f])
+                continue;
+            if (try_base(f, false, true)) progress = true;
+        }
+        if (!progress) break;
+    }
+}
+
+void RegionMesher::fail(const std::string& why) const {
+    std::int32_t f = 0;
+    while (f < static_cast<std::int32_t>(fv_.size()) && !falive_[f]) ++f;
+    std::string place = f < static_cast<std::int32_t>(fv_.size()) ? where(fv_[f][0]) : "?";
+    FM_THROW(MeshingError, "tetra: region " + std::to_string(region_) + ": " + why + " near " +
+                               place + ", " + std::to_string(front_size_) +
+                               " front triangles left");
+}
+
+RegionResult RegionMesher::run() {
+    RegionResult res;
+    std::int64_t attempts = 0;
+    const std::int32_t max_levels = 100000;
+    std::int32_t levels = 0;
+    // §3.1.3-3.1.5: level after level until the front is empty or stalls.
+    for (front_no_ = 0; front_size_ > 0 && front_no_ < max_levels; ++front_no_) {
+        setup_level();
+        const std::int64_t tets_before = static_cast<std::int64_t>(tv_.size());
+        const std::int64_t remesh_before = remeshes_;
+        run_stage(1, true, attempts);
+        run_stage(2, true, attempts);
+        ++levels;
+        if (log_)
+            log_("tetra: region " + std::to_string(region_) + ", level " +
+                 std::to_string(front_no_) + ": " + std::to_string(alive_tets_) + " tets, " +
+                 std::to_string(front_size_) + " front triangles, " + std::to_string(remeshes_) +
+                 " remeshings");
+        if (static_cast<std::int64_t>(tv_.size()) == tets_before && remeshes_ == remesh_before)
+            break;  // stalled: nothing changed in a whole level
+    }
+    ++front_no_;
+    // Closing phase for the cavities the layered front could not fill.
+    std::int64_t closing_rounds = 0;
+    const std::int64_t tets_before_closing = alive_tets_;
+    for (std::int32_t round = 0; front_size_ > 0 && round <= params_.max_closing_rounds; ++round) {
+        ++closing_rounds;
+        closing_round(round);
+    }
+    if (front_size_ > 0) fail("the front cannot be closed");
+    res.region = region_;
+    res.boundary_nodes = boundary_nodes_;
+    res.global_of_local = global_of_local_;
+    res.xyz = xyz_;
+    res.level = level_;
+    res.tets.reserve(static_cast<std::size_t>(alive_tets_));
+    for (std::size_t t = 0; t < tv_.size(); ++t)
+        if (talive_[t]) res.tets.push_back(tv_[t]);
+    res.remeshes = remeshes_;
+    res.closing_rounds = closing_rounds;
+    res.closing_tets = alive_tets_ - tets_before_closing;
+    res.levels = levels;
+    for (int i = 0; i < 8; ++i) res.stat[i] = stat_[i];
+    return res;
+}
+
+}  // namespace
+
+core::TetMesh tetra(const core::SurfaceNetwork& surface, const TetraParams& params,
+                    core::StageContext& ctx) {
+    validate(params);
+    if (surface.face_count() == 0) FM_THROW(InputError, "tetra: the surface has no triangles");
+    const std::size_t nv = surface.vertex_count();
+    for (std::size_t f = 0; f < surface.face_count(); ++f)
+        for (std::int32_t v : surface.faces[f])
+            if (v < 0 || static_cast<std::size_t>(v) >= nv)
+                FM_THROW(InputError, "tetra: face " + std::to_string(f) + " has a vertex id out of range");
+    const std::vector<Label> labels = core::region_labels(surface);
+    std::vector<RegionResult> results(labels.size());
+    std::vector<std::exception_ptr> errors(labels.size());
+    std::mutex ctx_mutex;
+    std::size_t done = 0;
+    tbb::parallel_for(std::size_t(0), labels.size(), [&](std::size_t r) {
+        try {
+            RegionMesher mesher(surface, labels[r], params, [&](const std::string& m) {
+                std::lock_guard<std::mutex> lock(ctx_mutex);
+                ctx.debug(m);
+            });
+            results[r] = mesher.run();
+        } catch (...) {
+            errors[r] = std::current_exception();
+        }
+        std::lock_guard<std::mutex> lock(ctx_mutex);
+        ++done;
+        ctx.progress(static_cast<double>(done) / static_cast<double>(labels.size()),
+                     "tetra: regions meshed");
+    });
+    for (const auto& e : errors)
+        if (e) std::rethrow_exception(e);
+
+    // Deterministic merge: surface nodes first, then each region's new nodes in label order.
+    core::TetMesh mesh;
+    mesh.xyz = surface.xyz;
+    mesh.level.assign(nv, 0);
+    mesh.faces = surface.faces;
+    mesh.region_in = surface.region_in;
+    mesh.region_out = surface.region_out;
+    mesh.surface_vertices = static_cast<std::int32_t>(nv);
+    std::int64_t remeshes = 0, closing_rounds = 0, closing_tets = 0, levels = 0;
+    std::int64_t stat[8] = {};
+    for (const RegionResult& res : results) {
+        const std::int32_t nl = static_cast<std::int32_t>(res.level.size());
+        std::vector<std::int32_t> global(nl, -1);
+        for (std::int32_t v = 0; v < res.boundary_nodes; ++v) global[v] = res.global_of_local[v];
+        for (const Tet& t : res.tets) {
+            Tet g;
+            for (int k = 0; k < 4; ++k) {
+                const std::int32_t v = t[k];
+                if (global[v] < 0) {
+                    global[v] = mesh.add_node(
+                        Eigen::Vector3d(res.xyz[3 * v], res.xyz[3 * v + 1], res.xyz[3 * v + 2]));
+                    mesh.level.push_back(res.level[v]);
+                }
+                g[k] = global[v];
+            }
+            mesh.add_tet(g[0], g[1], g[2], g[3], res.region);
+        }
+        remeshes += res.remeshes;
+        closing_rounds += res.closing_rounds;
+        closing_tets += res.closing_tets;
+        levels = std::max<std::int64_t>(levels, res.levels);
+        for (int i = 0; i < 8; ++i) stat[i] += res.stat[i];
+    }
+    for (int i = 0; i < 8; ++i) ctx.count(std::string("tetra.") + kStatNames[i], static_cast<double>(stat[i]));
+    ctx.count("tetra.tets", static_cast<double>(mesh.tet_count()));
+    ctx.count("tetra.nodes", static_cast<double>(mesh.node_count()));
+    ctx.count("tetra.regions", static_cast<double>(labels.size()));
+    ctx.count("tetra.remeshings", static_cast<double>(remeshes));
+    ctx.count("tetra.closing_rounds", static_cast<double>(closing_rounds));
+    ctx.count("tetra.closing_tets", static_cast<double>(closing_tets));
+    ctx.count("tetra.max_levels", static_cast<double>(levels));
+    ctx.info("tetra: " + std::to_string(mesh.tet_count()) + " tets, " +
+             std::to_string(mesh.node_count()) + " nodes, " + std::to_string(labels.size()) +
+             " regions, " + std::to_string(remeshes) + " local remeshings");
+    return mesh;
+}
+
+}  // namespace frontmesh::volume

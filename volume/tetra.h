@@ -1,0 +1,54 @@
+#pragma once
+// Tetra stage (issue 4): the layered tetrahedral advancing front of the paper, §3.1-3.2, one
+// region at a time from its closed boundary; the input surface is kept exactly.
+
+#include "pipeline/core/stage_context.h"
+#include "pipeline/core/surface_network.h"
+#include "pipeline/core/tet_mesh.h"
+
+namespace frontmesh::volume {
+
+/// Parameters of the tetra stage; every field is the recipe key `tetra.<field>`.
+struct TetraParams {
+    /// alpha of Eq. 4, the stretching factor of the element size from one front level to the
+    /// next (h_o = 1.24 alpha sqrt(a)). Default 1.15, dimensionless, range (1.0, 2.0].
+    double stretching = 1.15;
+    /// Laplacian smoothing passes over the corrected heights h'_o of Eq. 6 on each level front
+    /// (§3.1.3). Default 3, range [0, 100].
+    int height_smoothing_iterations = 3;
+    /// Local remeshings (§3.2) allowed per front node before a failing base is left for the
+    /// next level / the closing phase. Default 3, range [0, 50].
+    int max_remesh_per_node = 3;
+    /// Angle of the paper's face-face (dihedral) and edge-face angle tests of step 4, degrees.
+    /// Default 5, range [0, 30].
+    double min_angle_deg = 5.0;
+    /// Rounds of the closing phase for the cavities the layered front leaves (each round
+    /// removes one more ring of tets around what is left and refills it with relaxed quality
+    /// tests, exact validity tests kept). Default 8, range [0, 100].
+    int max_closing_rounds = 8;
+};
+
+/// Throws InputError naming the key `tetra.<field>` when a field is out of range.
+void validate(const TetraParams& params);
+
+/// Meshes every region of `surface` (closed, oriented SurfaceNetwork; faces' normals point out
+/// of region_in) with the layered advancing front of §3.1-3.2.
+///
+/// Result: a TetMesh whose nodes [0, surface.vertex_count()) are the surface vertices (same
+/// order, exact coordinates), faces/region_in/region_out = the surface's triangles, tets in VTK
+/// order (positive volume, decided by exact predicates), `region` per tet, `level` per node (0
+/// for surface nodes, n + 1 for nodes created on the n-th level front). Regions run in
+/// parallel (TBB); new nodes are appended region by region in label order, so the result is
+/// identical for any thread count and interfaces are identical by construction.
+///
+/// Every new tet passes exact tests against the current front (no front node in it, no
+/// improper edge-face intersection), so the output is a conforming tetrahedralisation of each
+/// region's boundary whenever the function returns.
+///
+/// Throws InputError on invalid params or an empty surface, MeshingError naming the region,
+/// a place (mm) and the front size left when a region cannot be finished. All loops are
+/// bounded. Cost: about O(tets log tets) for well-graded surfaces.
+core::TetMesh tetra(const core::SurfaceNetwork& surface, const TetraParams& params,
+                    core::StageContext& ctx);
+
+}  // namespace frontmesh::volume
