@@ -10,6 +10,9 @@
 
 #include <tbb/global_control.h>
 
+#include "io/export.h"
+#include "io/label_table.h"
+#include "pipeline/check.h"
 #include "pipeline/cohort.h"
 #include "pipeline/core/error.h"
 #include "pipeline/version.h"
@@ -26,7 +29,9 @@ Usage:
                             [--force] [--threads N] [--quiet]
   frontmesh validate RECIPE.yaml [--set key.path=value ...]
   frontmesh cohort MANIFEST.csv --recipe RECIPE.yaml [-j N] [--set key.path=value ...]
-                            [--force] [--threads N] [--quiet]
+                            [--until STAGE] [--force] [--threads N] [--quiet]
+  frontmesh check MESH [--json] [--surface REF]
+  frontmesh convert IN OUT [--format NAME] [--labels TABLE]
   frontmesh keys                 list every recipe key with its default
   frontmesh --help | --version
 
@@ -39,6 +44,13 @@ Commands:
             recipe keys as per-subject overrides) into OUTPUT/ID/, N subjects at a time
             (-j N), each in its own process; writes OUTPUT/cohort-summary.csv and .json;
             finished subjects are skipped on a re-run; exit 1 if any subject failed
+  check     validity and quality report of a tetrahedral mesh (.vtu .msh .mesh .inp):
+            inverted/degenerate/duplicate tets, conformity, closed boundary, volume vs
+            enclosed volume (the criteria of meshcheck.py), boundary faces kept with their
+            regions, skewness (Eq. 1), dihedral angles, surface triangle skewness (Eq. 2);
+            exit 0 valid, 1 invalid, 2 unreadable input
+  convert   read IN (.vtu .msh .mesh .inp) and write OUT in the format of its extension
+            (.vtu .msh .mesh .inp .feb) or of --format (vtu msh msh22 mesh inp feb)
 
 Options:
   --set key.path=value  override a recipe key (YAML value), e.g. --set input.threshold=30
@@ -49,6 +61,12 @@ Options:
   --quiet               only warnings and errors on the terminal (the log has all)
   --recipe FILE         cohort: the recipe every subject runs
   -j, --jobs N          cohort: subjects running at the same time (default 1)
+  --json                check: print the report as JSON instead of text
+  --surface REF         check: a triangle surface (.vtu .vtp .stl .off .ply) that must be
+                        preserved exactly (every triangle a mesh face, and back)
+  --format NAME         convert: output format (vtu msh msh22 mesh inp feb)
+  --labels TABLE        convert: label names (atlas .txt, FreeSurfer/ITK-SNAP table) for
+                        region, group and set names
 
 Stages, in order: extract, repair (remesh, tetra and refine are to come).
 A stage whose input and parameters are unchanged since the last run is skipped.
@@ -60,6 +78,8 @@ Exit codes: 0 success, 2 bad input or recipe, 1 internal failure
 
 struct Arguments {
     std::string command, recipe, from, until, cohort_recipe;
+    std::string output, surface, format, labels;  // check / convert
+    bool json = false;
     std::vector<std::string> overrides;
     bool force = false, quiet = false;
     int threads = 0, jobs = 0;
@@ -93,6 +113,10 @@ Arguments parse(int argc, char** argv) {
         else if (arg == "--threads") a.threads = whole_number(arg, value(i));
         else if (arg == "--recipe") a.cohort_recipe = value(i);
         else if (arg == "-j" || arg == "--jobs") a.jobs = whole_number(arg, value(i));
+        else if (arg == "--json") a.json = true;
+        else if (arg == "--surface") a.surface = value(i);
+        else if (arg == "--format") a.format = value(i);
+        else if (arg == "--labels") a.labels = value(i);
         else if (arg.size() > 2 && arg.rfind("-j", 0) == 0) a.jobs = whole_number("-j", arg.substr(2));
         else if (!arg.empty() && arg[0] == '-') {
             FM_THROW(InputError, arg + ": unknown option (see frontmesh --help)");
@@ -100,6 +124,8 @@ Arguments parse(int argc, char** argv) {
             a.command = arg;
         } else if (a.recipe.empty()) {
             a.recipe = arg;
+        } else if (a.command == "convert" && a.output.empty()) {
+            a.output = arg;
         } else {
             FM_THROW(InputError, arg + ": unexpected argument (see frontmesh --help)");
         }
@@ -110,12 +136,18 @@ Arguments parse(int argc, char** argv) {
 int run_cohort_command(const Arguments& args) {
     if (args.recipe.empty() || args.cohort_recipe.empty())
         FM_THROW(InputError, "cohort: usage: frontmesh cohort MANIFEST.csv --recipe RECIPE.yaml [-j N]");
-    if (!args.from.empty() || !args.until.empty()) FM_THROW(InputError, "cohort: --from and --until are for run");
+    if (!args.from.empty()) FM_THROW(InputError, "cohort: --from is for run");
+    if (!args.until.empty()) {
+        const auto& names = stage_names();
+        if (std::find(names.begin(), names.end(), args.until) == names.end())
+            FM_THROW(InputError, "--until " + args.until + ": unknown stage");
+    }
     CohortOptions options;
     options.recipe = args.cohort_recipe;
     options.overrides = args.overrides;
     options.jobs = std::max(args.jobs, 1);
     options.force = args.force;
+    options.until = args.until;
     options.threads = args.threads;
     if (!args.quiet) options.on_progress = [](const std::string& line) { std::cerr << line << '\n'; };
     const CohortResult result = run_cohort(args.recipe, options);
@@ -126,6 +158,31 @@ int run_cohort_command(const Arguments& args) {
               << (root / "cohort-summary.json").string() << "\nResults:  " << (root / "ID").string()
               << "/ (each with its summary.json, frontmesh.log and cohort-run.log)\n";
     return result.count(SubjectStatus::Failed) ? 1 : 0;
+}
+
+int run_check_command(const Arguments& args) {
+    if (args.recipe.empty()) FM_THROW(InputError, "check: usage: frontmesh check MESH [--json] [--surface REF]");
+    const MeshReport report = check_mesh_file(args.recipe, args.surface);
+    std::cout << (args.json ? report.json() : report.text());
+    return report.valid() ? 0 : 1;
+}
+
+int run_convert_command(const Arguments& args) {
+    if (args.recipe.empty() || args.output.empty())
+        FM_THROW(InputError, "convert: usage: frontmesh convert IN OUT [--format NAME] [--labels TABLE]");
+    const io::MeshFormat format =
+        args.format.empty() ? io::format_from_path(args.output) : io::format_from_name(args.format);
+    io::LabelTable names;
+    io::MeshReadInfo info;
+    const core::TetMesh mesh = io::read_mesh(args.recipe, &names, &info);
+    if (!args.labels.empty()) {
+        const io::LabelTable table = io::read_label_table(args.labels);
+        for (const auto& [label, name] : table.names()) names.set(label, name);
+    }
+    io::write_mesh(mesh, args.output, format, names, info.fields);
+    std::cout << args.output << ": " << mesh.node_count() << " nodes, " << mesh.tet_count() << " tets, "
+              << mesh.face_count() << " boundary/interface faces (" << io::format_name(format) << ")\n";
+    return 0;
 }
 
 }  // namespace
@@ -151,9 +208,17 @@ int run_cli(int argc, char** argv) {
             for (const auto& [key, value] : recipe_keys()) std::cout << key << ": " << value << '\n';
             return 0;
         }
+        const bool mesh_command = args.command == "check" || args.command == "convert";
+        if (!mesh_command && (args.json || !args.surface.empty() || !args.format.empty() || !args.labels.empty()))
+            FM_THROW(InputError, "--json, --surface, --format and --labels are for frontmesh check / convert");
+        if (mesh_command && (!args.overrides.empty() || !args.from.empty() || !args.until.empty() || args.force ||
+                             args.jobs || !args.cohort_recipe.empty()))
+            FM_THROW(InputError, args.command + ": takes no recipe options (see frontmesh --help)");
+        if (args.command == "check") return run_check_command(args);
+        if (args.command == "convert") return run_convert_command(args);
         if (args.command == "cohort") return run_cohort_command(args);
         if (args.command != "run" && args.command != "validate")
-            FM_THROW(InputError, args.command + ": unknown command; use run, validate, cohort or keys (see frontmesh --help)");
+            FM_THROW(InputError, args.command + ": unknown command; use run, validate, cohort, check, convert or keys (see frontmesh --help)");
         if (!args.cohort_recipe.empty() || args.jobs)
             FM_THROW(InputError, std::string(args.jobs ? "-j" : "--recipe") + ": only for frontmesh cohort");
         if (args.recipe.empty()) FM_THROW(InputError, args.command + ": needs a recipe file (frontmesh " + args.command + " RECIPE.yaml)");

@@ -9,6 +9,7 @@ packages=(
   mricron-data                                   # real atlases for examples and e2e tests
   python3 python3-numpy python3-vtk9 python3-meshio   # the meshcheck referee, checkpoint checks
   tetgen                                         # peer mesher for the benchmarks
+  gmsh                                           # reads our .msh/.mesh exports back in the tests
   snakemake                                      # examples/cohort/Snakefile (local or SLURM)
 )
 

@@ -1,0 +1,358 @@
+// Gmsh MSH 4.1 and 2.2 (ASCII): writers and reader.
+// Format reference: the Gmsh manual, section "MSH file format" (versions 4.1 and 2.2).
+
+#include <algorithm>
+#include <limits>
+#include <map>
+#include <numeric>
+#include <set>
+
+#include "io/atomic_file.h"
+#include "io/export_detail.h"
+#include "pipeline/core/error.h"
+
+namespace frontmesh::io::detail {
+namespace {
+
+constexpr int kGmshTriangle = 2;
+constexpr int kGmshTet = 4;
+
+/// Nodes per element of the Gmsh element types a reader may meet (0 = unknown).
+int gmsh_nodes_per_element(long long type) {
+    switch (type) {
+        case 1: return 2;    // line
+        case 2: return 3;    // triangle
+        case 3: return 4;    // quadrangle
+        case 4: return 4;    // tetrahedron
+        case 5: return 8;    // hexahedron
+        case 6: return 6;    // prism
+        case 7: return 5;    // pyramid
+        case 8: return 3;    // line3
+        case 9: return 6;    // triangle6
+        case 10: return 9;   // quadrangle9
+        case 11: return 10;  // tetrahedron10
+        case 15: return 1;   // point
+        case 16: return 8;   // quadrangle8
+        case 17: return 20;  // hexahedron20
+        default: return 0;
+    }
+}
+
+void write_physical_names(TextOut& out, const std::vector<RegionGroup>& regions,
+                          const std::vector<SurfaceGroup>& surfaces) {
+    out << "$PhysicalNames\n" << regions.size() + surfaces.size() << '\n';
+    for (const auto& g : surfaces) out << "2 " << g.tag << " \"" << g.name << "\"\n";
+    for (const auto& r : regions) out << "3 " << r.label << " \"" << r.name << "\"\n";
+    out << "$EndPhysicalNames\n";
+}
+
+void write_node_xyz(TextOut& out, const core::TetMesh& mesh, std::size_t v) {
+    out << mesh.xyz[3 * v] << ' ' << mesh.xyz[3 * v + 1] << ' ' << mesh.xyz[3 * v + 2];
+}
+
+/// Bounding box "minx miny minz maxx maxy maxz" of the nodes of some elements.
+template <class Elements>
+void write_bbox(TextOut& out, const core::TetMesh& mesh, const Elements& elements,
+                const std::vector<std::int32_t>& ids) {
+    double lo[3], hi[3];
+    for (int k = 0; k < 3; ++k) {
+        lo[k] = std::numeric_limits<double>::max();
+        hi[k] = std::numeric_limits<double>::lowest();
+    }
+    for (std::int32_t e : ids)
+        for (std::int32_t v : elements[static_cast<std::size_t>(e)])
+            for (int k = 0; k < 3; ++k) {
+                lo[k] = std::min(lo[k], mesh.xyz[3 * static_cast<std::size_t>(v) + k]);
+                hi[k] = std::max(hi[k], mesh.xyz[3 * static_cast<std::size_t>(v) + k]);
+            }
+    out << lo[0] << ' ' << lo[1] << ' ' << lo[2] << ' ' << hi[0] << ' ' << hi[1] << ' ' << hi[2];
+}
+
+}  // namespace
+
+void write_msh41(const core::TetMesh& mesh, const std::string& path, const LabelTable& names) {
+    const auto regions = region_groups(mesh, names);
+    const auto surfaces = surface_groups(mesh, names);
+    write_atomically(path, [&](const std::string& temp) {
+        TextOut out(temp);
+        out << "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n";
+        write_physical_names(out, regions, surfaces);
+        // One surface entity per (region_in, region_out) pair, one volume entity per region
+        // (entity tag = physical tag), each volume bounded by the surfaces of its pairs
+        // (negative tag where the surface's normal points into the volume).
+        out << "$Entities\n0 0 " << surfaces.size() << ' ' << regions.size() << '\n';
+        for (const auto& g : surfaces) {
+            out << g.tag << ' ';
+            write_bbox(out, mesh, mesh.faces, g.faces);
+            out << " 1 " << g.tag << " 0\n";
+        }
+        for (const auto& r : regions) {
+            out << r.label << ' ';
+            write_bbox(out, mesh, mesh.tets, r.tets);
+            std::vector<int> bounding;
+            for (const auto& g : surfaces) {
+                if (g.in == r.label) bounding.push_back(g.tag);
+                else if (g.out == r.label) bounding.push_back(-g.tag);
+            }
+            out << " 1 " << r.label << ' ' << bounding.size();
+            for (int b : bounding) out << ' ' << b;
+            out << '\n';
+        }
+        out << "$EndEntities\n";
+        // All nodes in one block on the first volume: node tag = index + 1.
+        const std::size_t n = mesh.node_count();
+        out << "$Nodes\n1 " << n << " 1 " << n << '\n';
+        out << "3 " << regions.front().label << " 0 " << n << '\n';
+        for (std::size_t v = 0; v < n; ++v) out << v + 1 << '\n';
+        for (std::size_t v = 0; v < n; ++v) {
+            write_node_xyz(out, mesh, v);
+            out << '\n';
+        }
+        out << "$EndNodes\n";
+        // Elements: tet t has tag t + 1, face f has tag tets + f + 1.
+        const std::size_t nt = mesh.tet_count(), nf = mesh.face_count();
+        out << "$Elements\n" << surfaces.size() + regions.size() << ' ' << nt + nf << " 1 " << nt + nf << '\n';
+        for (const auto& g : surfaces) {
+            out << "2 " << g.tag << ' ' << kGmshTriangle << ' ' << g.faces.size() << '\n';
+            for (std::int32_t f : g.faces) {
+                const auto& tri = mesh.faces[static_cast<std::size_t>(f)];
+                out << nt + static_cast<std::size_t>(f) + 1 << ' ' << tri[0] + 1 << ' ' << tri[1] + 1 << ' '
+                    << tri[2] + 1 << '\n';
+            }
+        }
+        for (const auto& r : regions) {
+            out << "3 " << r.label << ' ' << kGmshTet << ' ' << r.tets.size() << '\n';
+            for (std::int32_t t : r.tets) {
+                const auto& tet = mesh.tets[static_cast<std::size_t>(t)];
+                out << static_cast<std::size_t>(t) + 1 << ' ' << tet[0] + 1 << ' ' << tet[1] + 1 << ' '
+                    << tet[2] + 1 << ' ' << tet[3] + 1 << '\n';
+            }
+        }
+        out << "$EndElements\n";
+        out.close();
+    });
+}
+
+void write_msh22(const core::TetMesh& mesh, const std::string& path, const LabelTable& names) {
+    const auto regions = region_groups(mesh, names);
+    const auto surfaces = surface_groups(mesh, names);
+    std::vector<int> face_tag(mesh.face_count(), 0);
+    for (const auto& g : surfaces)
+        for (std::int32_t f : g.faces) face_tag[static_cast<std::size_t>(f)] = g.tag;
+    write_atomically(path, [&](const std::string& temp) {
+        TextOut out(temp);
+        out << "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n";
+        write_physical_names(out, regions, surfaces);
+        const std::size_t n = mesh.node_count();
+        out << "$Nodes\n" << n << '\n';
+        for (std::size_t v = 0; v < n; ++v) {
+            out << v + 1 << ' ';
+            write_node_xyz(out, mesh, v);
+            out << '\n';
+        }
+        out << "$EndNodes\n";
+        // elm-number elm-type 2 physical elementary nodes...; tets first (tag t + 1).
+        const std::size_t nt = mesh.tet_count(), nf = mesh.face_count();
+        out << "$Elements\n" << nt + nf << '\n';
+        for (std::size_t t = 0; t < nt; ++t) {
+            const auto& tet = mesh.tets[t];
+            const core::Label r = mesh.region[t];
+            out << t + 1 << ' ' << kGmshTet << " 2 " << r << ' ' << r << ' ' << tet[0] + 1 << ' ' << tet[1] + 1
+                << ' ' << tet[2] + 1 << ' ' << tet[3] + 1 << '\n';
+        }
+        for (std::size_t f = 0; f < nf; ++f) {
+            const auto& tri = mesh.faces[f];
+            out << nt + f + 1 << ' ' << kGmshTriangle << " 2 " << face_tag[f] << ' ' << face_tag[f] << ' '
+                << tri[0] + 1 << ' ' << tri[1] + 1 << ' ' << tri[2] + 1 << '\n';
+        }
+        out << "$EndElements\n";
+        out.close();
+    });
+}
+
+RawMesh read_msh(const std::string& path) {
+    Tokens in(path);
+    RawMesh raw;
+    if (in.word("$MeshFormat") != "$MeshFormat") in.fail("not a Gmsh .msh file (no $MeshFormat)");
+    const std::string version(in.word("the format version"));
+    const long long file_type = in.integer("the file type");
+    in.integer("the data size");
+    if (in.word("$EndMeshFormat") != "$EndMeshFormat") in.fail("expected $EndMeshFormat");
+    if (file_type != 0)
+        in.fail("binary .msh files are not supported; save it as ASCII (gmsh FILE -0 -save -o out.msh)");
+    const bool v4 = version == "4.1";
+    if (!v4 && version.rfind("2.", 0) != 0)
+        in.fail("MSH version " + version + " is not supported (4.1 and 2.x are)");
+    raw.format = v4 ? "msh 4.1" : "msh " + version;
+
+    std::map<std::pair<int, long long>, std::string> physical_names;   // (dim, tag) -> name
+    std::map<std::pair<int, long long>, long long> entity_physical;    // (dim, entity) -> tag
+    std::map<long long, std::int32_t> node_index;                      // node tag -> index
+    struct Element {
+        long long tag;
+        std::array<long long, 4> nodes;
+        long long region;
+    };
+    std::vector<Element> tets, tris;
+    std::vector<std::pair<long long, std::array<double, 3>>> nodes;
+
+    auto add_element = [&](int type, long long tag, long long region, const std::vector<long long>& v) {
+        if (type == 4 || type == 11) tets.push_back({tag, {v[0], v[1], v[2], v[3]}, region});
+        else if (type == 2 || type == 9) tris.push_back({tag, {v[0], v[1], v[2], 0}, region});
+    };
+
+    while (!in.at_end()) {
+        const std::string section(in.word("a section"));
+        if (section.empty() || section[0] != '$') in.fail("expected a $Section, found \"" + section + "\"");
+        const std::string end = "$End" + section.substr(1);
+        if (section == "$PhysicalNames") {
+            const long long n = in.integer("the number of physical names");
+            for (long long i = 0; i < n; ++i) {
+                const int dim = static_cast<int>(in.integer("a physical dimension"));
+                const long long tag = in.integer("a physical tag");
+                std::string name(in.rest_of_line());
+                if (name.size() >= 2 && name.front() == '"' && name.back() == '"') name = name.substr(1, name.size() - 2);
+                physical_names[{dim, tag}] = name;
+            }
+        } else if (section == "$Entities" && v4) {
+            long long count[4];
+            for (auto& c : count) c = in.integer("an entity count");
+            for (int dim = 0; dim < 4; ++dim)
+                for (long long i = 0; i < count[dim]; ++i) {
+                    const long long tag = in.integer("an entity tag");
+                    for (int k = 0; k < (dim == 0 ? 3 : 6); ++k) in.real("a bounding box coordinate");
+                    const long long np = in.integer("the number of physical tags");
+                    for (long long k = 0; k < np; ++k) {
+                        const long long p = in.integer("a physical tag");
+                        if (k == 0) entity_physical[{dim, tag}] = p;
+                    }
+                    if (dim > 0) {
+                        const long long nb = in.integer("the number of bounding entities");
+                        for (long long k = 0; k < nb; ++k) in.integer("a bounding entity");
+                    }
+                }
+        } else if (section == "$Nodes") {
+            if (v4) {
+                const long long blocks = in.integer("the number of node blocks");
+                const long long total = in.integer("the number of nodes");
+                in.integer("the smallest node tag");
+                in.integer("the largest node tag");
+                nodes.reserve(static_cast<std::size_t>(std::max(0LL, total)));
+                for (long long b = 0; b < blocks; ++b) {
+                    in.integer("an entity dimension");
+                    in.integer("an entity tag");
+                    const long long parametric = in.integer("the parametric flag");
+                    const long long n = in.integer("the number of nodes in the block");
+                    const std::size_t first = nodes.size();
+                    for (long long i = 0; i < n; ++i) nodes.push_back({in.integer("a node tag"), {}});
+                    for (long long i = 0; i < n; ++i) {
+                        auto& p = nodes[first + static_cast<std::size_t>(i)].second;
+                        for (double& c : p) c = in.real("a node coordinate");
+                        if (parametric)
+                            in.fail("parametric node coordinates are not supported");
+                    }
+                }
+            } else {
+                const long long n = in.integer("the number of nodes");
+                nodes.reserve(static_cast<std::size_t>(std::max(0LL, n)));
+                for (long long i = 0; i < n; ++i) {
+                    const long long tag = in.integer("a node number");
+                    std::array<double, 3> p{};
+                    for (double& c : p) c = in.real("a node coordinate");
+                    nodes.push_back({tag, p});
+                }
+            }
+        } else if (section == "$Elements") {
+            std::vector<long long> v;
+            if (v4) {
+                const long long blocks = in.integer("the number of element blocks");
+                in.integer("the number of elements");
+                in.integer("the smallest element tag");
+                in.integer("the largest element tag");
+                for (long long b = 0; b < blocks; ++b) {
+                    const int dim = static_cast<int>(in.integer("an entity dimension"));
+                    const long long entity = in.integer("an entity tag");
+                    const long long type = in.integer("an element type");
+                    const long long n = in.integer("the number of elements in the block");
+                    const int nn = gmsh_nodes_per_element(type);
+                    if (nn == 0) in.fail("unknown element type " + std::to_string(type));
+                    const auto it = entity_physical.find({dim, entity});
+                    const long long region = it != entity_physical.end() ? it->second : entity;
+                    v.resize(static_cast<std::size_t>(nn));
+                    for (long long i = 0; i < n; ++i) {
+                        const long long tag = in.integer("an element tag");
+                        for (auto& x : v) x = in.integer("a node tag");
+                        add_element(static_cast<int>(type), tag, region, v);
+                    }
+                }
+            } else {
+                const long long n = in.integer("the number of elements");
+                for (long long i = 0; i < n; ++i) {
+                    const long long tag = in.integer("an element number");
+                    const long long type = in.integer("an element type");
+                    const long long ntags = in.integer("the number of tags");
+                    long long physical = 0, elementary = 0;
+                    for (long long k = 0; k < ntags; ++k) {
+                        const long long t = in.integer("an element tag");
+                        if (k == 0) physical = t;
+                        if (k == 1) elementary = t;
+                    }
+                    const int nn = gmsh_nodes_per_element(type);
+                    if (nn == 0) in.fail("unknown element type " + std::to_string(type));
+                    v.resize(static_cast<std::size_t>(nn));
+                    for (auto& x : v) x = in.integer("a node number");
+                    add_element(static_cast<int>(type), tag, physical != 0 ? physical : elementary, v);
+                }
+            }
+        } else {
+            // Sections we do not need ($Entities of 2.x files, $NodeData, $Periodic, ...).
+            for (;;) {
+                if (in.at_end()) in.fail("file ends inside " + section);
+                if (in.word("a section end") == end) break;
+            }
+            continue;
+        }
+        if (in.word(end.c_str()) != end) in.fail("expected " + end);
+    }
+
+    std::sort(nodes.begin(), nodes.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+    raw.mesh.xyz.reserve(3 * nodes.size());
+    for (std::size_t i = 0; i < nodes.size(); ++i) {
+        if (!node_index.emplace(nodes[i].first, static_cast<std::int32_t>(i)).second)
+            in.fail("node tag " + std::to_string(nodes[i].first) + " appears twice");
+        raw.mesh.add_node({nodes[i].second[0], nodes[i].second[1], nodes[i].second[2]});
+    }
+    // Node tags are usually 1..n: a dense table then, else the map.
+    const long long max_tag = nodes.empty() ? 0 : nodes.back().first;
+    std::vector<std::int32_t> dense;
+    if (!nodes.empty() && nodes.front().first >= 0 && max_tag <= 4 * static_cast<long long>(nodes.size()) + 16) {
+        dense.assign(static_cast<std::size_t>(max_tag) + 1, -1);
+        for (const auto& [tag, index] : node_index) dense[static_cast<std::size_t>(tag)] = index;
+    }
+    auto index_of = [&](long long tag) {
+        if (!dense.empty() && tag >= 0 && tag <= max_tag && dense[static_cast<std::size_t>(tag)] >= 0)
+            return dense[static_cast<std::size_t>(tag)];
+        const auto it = node_index.find(tag);
+        if (it == node_index.end()) in.fail("an element refers to node " + std::to_string(tag) + ", which is not in $Nodes");
+        return it->second;
+    };
+    auto by_tag = [](const Element& a, const Element& b) { return a.tag < b.tag; };
+    std::stable_sort(tets.begin(), tets.end(), by_tag);
+    std::stable_sort(tris.begin(), tris.end(), by_tag);
+    std::set<long long> labels;
+    for (const auto& e : tets) {
+        if (e.region <= 0 || e.region > std::numeric_limits<core::Label>::max())
+            in.fail("tetrahedron " + std::to_string(e.tag) + " has region tag " + std::to_string(e.region) +
+                    " (regions must be > 0)");
+        raw.mesh.add_tet(index_of(e.nodes[0]), index_of(e.nodes[1]), index_of(e.nodes[2]), index_of(e.nodes[3]),
+                         static_cast<core::Label>(e.region));
+        labels.insert(e.region);
+    }
+    for (const auto& e : tris) raw.triangles.push_back({index_of(e.nodes[0]), index_of(e.nodes[1]), index_of(e.nodes[2])});
+    for (const auto& [key, name] : physical_names)
+        if (key.first == 3 && labels.count(key.second) && name != "region_" + std::to_string(key.second))
+            raw.names.set(static_cast<core::Label>(key.second), name);
+    return raw;
+}
+
+}  // namespace frontmesh::io::detail

@@ -1,0 +1,57 @@
+#pragma once
+// The run's quality report (issue 5, item 7): histograms of the surface triangles' skewness
+// (Eq. 2), of the tets' skewness (Eq. 1) before and after refinement, and of the dihedral
+// angles, as SVG images and one self-contained report.html (as the paper's Figs. 10, 12, 15).
+
+#include <array>
+#include <cstddef>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "pipeline/core/tet_mesh.h"
+
+namespace frontmesh::pipeline {
+
+/// Histograms of one mesh. Plain doubles: these report, they decide nothing.
+struct QualityHistograms {
+    static constexpr int kSkewBins = 20;      ///< over [0, 1], 0.05 wide
+    static constexpr int kDihedralBins = 36;  ///< over [0, 180] degrees, 5 wide
+    std::array<std::size_t, kSkewBins> surface_skewness{};  ///< mesh.faces, Eq. 2
+    std::array<std::size_t, kSkewBins> tet_skewness{};      ///< Eq. 1
+    std::array<std::size_t, kDihedralBins> dihedral{};      ///< all six angles of every tet
+    std::array<std::size_t, kDihedralBins> min_dihedral{};  ///< smallest angle per tet
+    std::size_t faces = 0, tets = 0;
+    std::size_t surface_over_08 = 0, tet_over_08 = 0;       ///< skewness > 0.8
+    double surface_mean = 0.0, tet_mean = 0.0, tet_max = 0.0;
+    double min_dihedral_deg = 180.0, max_dihedral_deg = 0.0;
+    /// Per region: tets, mean skewness, tets with skewness > 0.8, smallest dihedral angle.
+    struct Region {
+        std::size_t tets = 0, over_08 = 0;
+        double mean = 0.0, min_dihedral_deg = 180.0;
+    };
+    std::map<core::Label, Region> regions;
+};
+
+/// Histograms of `mesh` (deterministic; O(tets + faces)).
+QualityHistograms quality_histograms(const core::TetMesh& mesh);
+
+/// An SVG bar chart of one or more histograms over [lo, hi] (same bin count), bars as a
+/// percentage of each series' total, side by side per bin; counts of the bins above
+/// `mark_from` (e.g. skewness 0.8) written above their bars. Self-contained SVG text.
+struct HistogramSeries {
+    std::string name;
+    std::vector<std::size_t> counts;
+};
+std::string svg_histogram(const std::string& title, const std::string& x_label, double lo, double hi,
+                          const std::vector<HistogramSeries>& series, double mark_from = 2.0);
+
+/// Writes surface_skewness.svg, tet_skewness.svg, dihedral.svg and report.html into `dir`
+/// (atomically; the folder is created). `before` is the mesh before refinement (the tetra
+/// stage's output) or null; `title` heads the page (e.g. the recipe file). Returns the paths
+/// written. Throws IoError naming a file that cannot be written.
+std::vector<std::string> write_quality_report(const std::string& dir, const core::TetMesh& mesh,
+                                              const core::TetMesh* before = nullptr,
+                                              const std::string& title = "frontmesh run");
+
+}  // namespace frontmesh::pipeline

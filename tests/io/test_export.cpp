@@ -1,0 +1,476 @@
+// Exports read back by our readers and by the real clients: gmsh (Debian) and python3-meshio.
+
+#include <sys/wait.h>
+
+#include <algorithm>
+#include <array>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <regex>
+#include <set>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <catch2/catch.hpp>
+
+#include "tests/fixtures/phantoms.h"
+#include "io/export.h"
+#include "io/label_table.h"
+#include "pipeline/core/error.h"
+#include "pipeline/core/quality.h"
+
+using namespace frontmesh;
+namespace fs = std::filesystem;
+
+namespace {
+
+/// A cube of 4^3 Kuhn cells with three regions: z low = 1, z high = 2, and x high = 7
+/// (so there are boundaries of three regions and the interfaces 1-2, 1-7, 2-7).
+core::TetMesh three_region_cube() {
+    core::TetMesh mesh = fixtures::cube_tet_mesh(4, 0.5, true);
+    for (std::size_t t = 0; t < mesh.tet_count(); ++t) {
+        double cx = 0;
+        for (int k = 0; k < 4; ++k) cx += mesh.point(mesh.tets[t][k]).x() / 4;
+        if (cx > 1.5) mesh.region[t] = 7;
+    }
+    core::derive_boundary_faces(mesh);
+    // Nodes on faces first (TetMesh: nodes [0, surface_vertices) are the surface's).
+    std::vector<std::int32_t> new_id(mesh.node_count(), -1);
+    std::int32_t next = 0;
+    for (const auto& f : mesh.faces)
+        for (std::int32_t v : f)
+            if (new_id[static_cast<std::size_t>(v)] < 0) new_id[static_cast<std::size_t>(v)] = next++;
+    mesh.surface_vertices = next;
+    for (auto& id : new_id)
+        if (id < 0) id = next++;
+    std::vector<double> xyz(mesh.xyz.size());
+    for (std::size_t v = 0; v < mesh.node_count(); ++v)
+        for (int k = 0; k < 3; ++k) xyz[3 * static_cast<std::size_t>(new_id[v]) + k] = mesh.xyz[3 * v + k];
+    mesh.xyz = xyz;
+    for (auto& t : mesh.tets)
+        for (auto& v : t) v = new_id[static_cast<std::size_t>(v)];
+    for (auto& f : mesh.faces)
+        for (auto& v : f) v = new_id[static_cast<std::size_t>(v)];
+    return mesh;
+}
+
+io::LabelTable names_for_cube() {
+    io::LabelTable names;
+    names.set(1, "Grey matter");
+    names.set(2, "White-matter (WM)");
+    names.set(7, "CSF");
+    return names;
+}
+
+struct Run {
+    int exit_code = -1;
+    std::string out;
+};
+
+Run run(const std::string& command) {
+    Run r;
+    std::FILE* p = popen((command + " 2>&1").c_str(), "r");
+    if (!p) return r;
+    char buf[4096];
+    std::size_t n;
+    while ((n = std::fread(buf, 1, sizeof buf, p)) > 0) r.out.append(buf, n);
+    const int status = pclose(p);
+    r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    return r;
+}
+
+bool have(const std::string& program) { return run("command -v " + program).exit_code == 0; }
+
+bool have_meshio() { return run("/usr/bin/python3 -c 'import meshio'").exit_code == 0; }
+
+/// "R a b c d" per tet (nodes sorted, 0-based) and "T tag a b c" per triangle, sorted:
+/// the content a reader must reproduce whatever order it uses.
+std::vector<std::string> signature(const core::TetMesh& mesh, const std::vector<int>& face_tags) {
+    std::vector<std::string> lines;
+    for (std::size_t t = 0; t < mesh.tet_count(); ++t) {
+        auto q = mesh.tets[t];
+        std::sort(q.begin(), q.end());
+        lines.push_back("R " + std::to_string(mesh.region[t]) + " " + std::to_string(q[0]) + " " +
+                        std::to_string(q[1]) + " " + std::to_string(q[2]) + " " + std::to_string(q[3]));
+    }
+    for (std::size_t f = 0; f < face_tags.size(); ++f) {
+        auto q = mesh.faces[f];
+        std::sort(q.begin(), q.end());
+        lines.push_back("T " + std::to_string(face_tags[f]) + " " + std::to_string(q[0]) + " " +
+                        std::to_string(q[1]) + " " + std::to_string(q[2]));
+    }
+    std::sort(lines.begin(), lines.end());
+    return lines;
+}
+
+/// Group tag per face: 1, 2, ... in increasing (region_in, region_out) order.
+std::vector<int> pair_tags(const core::TetMesh& mesh) {
+    std::map<std::pair<int, int>, int> tag;
+    for (std::size_t f = 0; f < mesh.face_count(); ++f) tag[{mesh.region_in[f], mesh.region_out[f]}] = 0;
+    int next = 0;
+    for (auto& [pair, t] : tag) t = ++next;
+    std::vector<int> tags;
+    for (std::size_t f = 0; f < mesh.face_count(); ++f) tags.push_back(tag[{mesh.region_in[f], mesh.region_out[f]}]);
+    return tags;
+}
+
+std::vector<std::string> lines_of(const std::string& text) {
+    std::vector<std::string> v;
+    std::istringstream in(text);
+    for (std::string l; std::getline(in, l);)
+        if (!l.empty() && (l[0] == 'R' || l[0] == 'T')) v.push_back(l);
+    std::sort(v.begin(), v.end());
+    return v;
+}
+
+/// meshio's view of a file: "N nodes", then R/T lines as in signature(). Regions: the
+/// cell data gmsh:physical / medit:ref, or for .inp the element set names mapped by `names`.
+std::string meshio_dump(const std::string& path, const std::string& set_to_label) {
+    const std::string script = R"PY(
+import sys, meshio, numpy as np
+m = meshio.read(sys.argv[1])
+set_to_label = dict(kv.split('=') for kv in sys.argv[2].split(',') if kv)
+print("N", len(m.points))
+key = next((k for k in ("gmsh:physical", "medit:ref") if k in m.cell_data), None)
+for i, blk in enumerate(m.cells):
+    if blk.type not in ("tetra", "triangle"):
+        continue
+    if key:
+        tags = m.cell_data[key][i]
+    else:
+        tags = np.zeros(len(blk.data), int)
+        for name, sets in m.cell_sets.items():
+            if name.upper() in set_to_label and len(sets) > i and sets[i] is not None:
+                tags[np.asarray(sets[i], int)] = int(set_to_label[name.upper()])
+    for c, t in zip(blk.data, tags):
+        c = sorted(int(x) for x in c)
+        print(("R" if blk.type == "tetra" else "T"), int(t), *c)
+)PY";
+    const std::string py = fs::path(path).parent_path() / "dump.py";
+    std::ofstream(py) << script;
+    const Run r = run("/usr/bin/python3 '" + py + "' '" + path + "' '" + set_to_label + "'");
+    INFO(r.out);
+    REQUIRE(r.exit_code == 0);
+    return r.out;
+}
+
+std::size_t meshio_nodes(const std::string& dump) {
+    std::istringstream in(dump);
+    for (std::string l; std::getline(in, l);)
+        if (l.rfind("N ", 0) == 0) return std::stoul(l.substr(2));
+    return 0;
+}
+
+}  // namespace
+
+TEST_CASE("format names and file names", "[io][export]") {
+    CHECK(io::format_from_name("msh") == io::MeshFormat::Msh41);
+    CHECK(io::format_from_name("MSH22") == io::MeshFormat::Msh22);
+    CHECK(io::format_from_name(".inp") == io::MeshFormat::Abaqus);
+    CHECK(io::format_from_name("feb") == io::MeshFormat::Febio);
+    CHECK_THROWS_AS(io::format_from_name("stl"), core::InputError);
+    CHECK(io::format_from_path("/a/b/x.MESH") == io::MeshFormat::Medit);
+    CHECK_THROWS_AS(io::format_from_path("x.obj"), core::InputError);
+    for (const auto& name : io::format_names()) CHECK(io::format_name(io::format_from_name(name)) == name);
+    CHECK(io::export_file_name(io::MeshFormat::Msh22) != io::export_file_name(io::MeshFormat::Msh41));
+}
+
+TEST_CASE("every format round-trips through read_mesh", "[io][export]") {
+    const core::TetMesh mesh = three_region_cube();
+    const io::LabelTable names = names_for_cube();
+    const std::string dir = fixtures::temp_dir("export_roundtrip");
+    for (const auto format : {io::MeshFormat::Vtu, io::MeshFormat::Msh41, io::MeshFormat::Msh22,
+                              io::MeshFormat::Medit, io::MeshFormat::Abaqus}) {
+        const std::string path = dir + "/" + io::export_file_name(format);
+        INFO(path);
+        io::write_mesh(mesh, path, format, names);
+        io::LabelTable back_names;
+        io::MeshReadInfo info;
+        const core::TetMesh back = io::read_mesh(path, &back_names, &info);
+        REQUIRE(back.node_count() == mesh.node_count());
+        CHECK(back.xyz == mesh.xyz);  // shortest round-trip decimal text is exact
+        CHECK(back.tets == mesh.tets);
+        CHECK(back.region == mesh.region);
+        CHECK(back.surface_vertices == mesh.surface_vertices);
+        if (format == io::MeshFormat::Abaqus) {
+            // .inp keeps no triangles: the faces are derived, the same set with the same pairs.
+            auto key = [](const core::TetMesh& m) {
+                std::set<std::array<int, 5>> s;
+                for (std::size_t f = 0; f < m.face_count(); ++f) {
+                    auto q = m.faces[f];
+                    std::sort(q.begin(), q.end());
+                    s.insert({q[0], q[1], q[2], std::min(m.region_in[f], m.region_out[f]),
+                              std::max(m.region_in[f], m.region_out[f])});
+                }
+                return s;
+            };
+            CHECK(key(back) == key(mesh));
+            CHECK(info.derived_faces == mesh.face_count());
+        } else {
+            CHECK(back.faces == mesh.faces);
+            CHECK(back.region_in == mesh.region_in);
+            CHECK(back.region_out == mesh.region_out);
+            CHECK(info.ignored_triangles == 0);
+            CHECK(info.derived_faces == 0);
+        }
+        for (core::Label l : {1, 2, 7})
+            CHECK(back_names.name(l) == (format == io::MeshFormat::Vtu ? names.name(l) : names.safe_name(l)));
+    }
+}
+
+TEST_CASE("read_mesh keeps a file's face orientation and adds missing faces", "[io][export]") {
+    core::TetMesh mesh = three_region_cube();
+    // Flip every interface face (region_in <-> region_out) and drop the first boundary face.
+    for (std::size_t f = 0; f < mesh.face_count(); ++f)
+        if (mesh.region_out[f] != 0) {
+            std::swap(mesh.faces[f][1], mesh.faces[f][2]);
+            std::swap(mesh.region_in[f], mesh.region_out[f]);
+        }
+    std::size_t dropped = 0;
+    while (mesh.region_out[dropped] != 0) ++dropped;
+    const auto dropped_face = mesh.faces[dropped];
+    mesh.faces.erase(mesh.faces.begin() + static_cast<std::ptrdiff_t>(dropped));
+    mesh.region_in.erase(mesh.region_in.begin() + static_cast<std::ptrdiff_t>(dropped));
+    mesh.region_out.erase(mesh.region_out.begin() + static_cast<std::ptrdiff_t>(dropped));
+    const std::string path = fixtures::temp_dir("export_faces") + "/m.msh";
+    io::write_mesh(mesh, path, io::MeshFormat::Msh41, {});
+    io::MeshReadInfo info;
+    const core::TetMesh back = io::read_mesh(path, nullptr, &info);
+    CHECK(info.derived_faces == 1);
+    REQUIRE(back.face_count() == mesh.face_count() + 1);
+    for (std::size_t f = 0; f < mesh.face_count(); ++f) {
+        CHECK(back.faces[f] == mesh.faces[f]);
+        CHECK(back.region_in[f] == mesh.region_in[f]);
+        CHECK(back.region_out[f] == mesh.region_out[f]);
+    }
+    auto last = back.faces.back(), want = dropped_face;
+    std::sort(last.begin(), last.end());
+    std::sort(want.begin(), want.end());
+    CHECK(last == want);
+}
+
+TEST_CASE("readers reject bad files naming file and line", "[io][export]") {
+    const std::string dir = fixtures::temp_dir("export_bad");
+    std::ofstream(dir + "/a.msh") << "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$Nodes\n1 2 1 2\n3 1 0 2\n1\n2\n0 0 x\n";
+    try {
+        io::read_mesh(dir + "/a.msh");
+        FAIL("no error");
+    } catch (const core::InputError& e) {
+        CHECK_THAT(e.what(), Catch::Contains("a.msh:9"));
+    }
+    std::ofstream(dir + "/b.msh") << "$MeshFormat\n4.1 1 8\n$EndMeshFormat\n";
+    CHECK_THROWS_WITH(io::read_mesh(dir + "/b.msh"), Catch::Contains("binary"));
+    std::ofstream(dir + "/c.mesh") << "MeshVersionFormatted 2\nDimension 3\nVertices\n1\n0 0 0 0\nEnd\n";
+    CHECK_THROWS_WITH(io::read_mesh(dir + "/c.mesh"), Catch::Contains("no tetrahedra"));
+    std::ofstream(dir + "/d.inp") << "*NODE\n1, 0, 0, 0\n*ELEMENT, TYPE=C3D4, ELSET=A\n1, 1, 2, 3, 9\n";
+    CHECK_THROWS_AS(io::read_mesh(dir + "/d.inp"), core::InputError);
+    CHECK_THROWS_AS(io::read_mesh(dir + "/missing.vtu"), core::InputError);
+}
+
+TEST_CASE("gmsh reads the MSH 4.1, MSH 2.2 and MEDIT exports", "[io][export][gmsh]") {
+    if (!have("gmsh")) {
+        WARN("gmsh not installed (scripts/install-deps.sh installs it): skipped");
+        return;
+    }
+    const core::TetMesh mesh = three_region_cube();
+    const io::LabelTable names = names_for_cube();
+    const std::string dir = fixtures::temp_dir("export_gmsh");
+    const std::vector<std::string> want = signature(mesh, pair_tags(mesh));
+    for (const auto format : {io::MeshFormat::Msh41, io::MeshFormat::Msh22, io::MeshFormat::Medit}) {
+        const std::string path = dir + "/" + io::export_file_name(format);
+        INFO(path);
+        io::write_mesh(mesh, path, format, names);
+        // gmsh -check reports the node and element counts it read.
+        const Run check = run("gmsh -check '" + path + "'");
+        INFO(check.out);
+        REQUIRE(check.exit_code == 0);
+        CHECK_THAT(check.out, !Catch::Contains("Error"));
+        std::smatch m;
+        REQUIRE(std::regex_search(check.out, m, std::regex("(\\d+) nodes")));
+        CHECK(std::stoul(m[1]) == mesh.node_count());
+        REQUIRE(std::regex_search(check.out, m, std::regex("(\\d+) elements")));
+        CHECK(std::stoul(m[1]) == mesh.tet_count() + mesh.face_count());
+        // gmsh's own re-export (MSH 2.2) holds the same tets, triangles and physical tags.
+        const std::string resaved = dir + "/gmsh-resaved.msh";
+        const Run save = run("gmsh '" + path + "' -0 -format msh22 -o '" + resaved + "'");
+        INFO(save.out);
+        REQUIRE(save.exit_code == 0);
+        io::MeshReadInfo info;
+        const core::TetMesh back = io::read_mesh(resaved, nullptr, &info);
+        CHECK(back.node_count() == mesh.node_count());
+        CHECK(back.tet_count() == mesh.tet_count());
+        CHECK(info.file_triangles == mesh.face_count());
+        // Map gmsh's nodes to ours by their (exact) coordinates before comparing.
+        std::map<std::array<double, 3>, std::int32_t> ours;
+        for (std::size_t v = 0; v < mesh.node_count(); ++v)
+            ours[{mesh.xyz[3 * v], mesh.xyz[3 * v + 1], mesh.xyz[3 * v + 2]}] = static_cast<std::int32_t>(v);
+        std::vector<std::int32_t> to_ours(back.node_count(), -1);
+        for (std::size_t v = 0; v < back.node_count(); ++v) {
+            const auto it = ours.find({back.xyz[3 * v], back.xyz[3 * v + 1], back.xyz[3 * v + 2]});
+            if (it != ours.end()) to_ours[v] = it->second;
+        }
+        REQUIRE(std::count(to_ours.begin(), to_ours.end(), -1) == 0);
+        std::vector<int> tags;
+        {
+            // Re-read the triangles' physical tags from gmsh's file with our reader's order.
+            std::ifstream in(resaved);
+            std::string line;
+            while (std::getline(in, line) && line != "$Elements") {
+            }
+            std::getline(in, line);
+            const int n = std::stoi(line);
+            std::map<std::array<int, 3>, int> tag_of;
+            for (int i = 0; i < n; ++i) {
+                std::getline(in, line);
+                std::istringstream s(line);
+                int id, type, ntags, phys, elem;
+                s >> id >> type >> ntags >> phys >> elem;
+                if (type != 2) continue;
+                std::array<int, 3> q{};
+                for (auto& v : q) s >> v, --v;
+                std::sort(q.begin(), q.end());
+                tag_of[q] = phys != 0 ? phys : elem;  // gmsh keeps MEDIT references as elementary tags
+            }
+            for (std::size_t f = 0; f < back.face_count(); ++f) {
+                auto q = back.faces[f];
+                std::sort(q.begin(), q.end());
+                tags.push_back(tag_of.count(q) ? tag_of[q] : -1);
+            }
+        }
+        core::TetMesh mapped = back;
+        for (auto& q : mapped.tets)
+            for (auto& v : q) v = to_ours[static_cast<std::size_t>(v)];
+        for (auto& q : mapped.faces)
+            for (auto& v : q) v = to_ours[static_cast<std::size_t>(v)];
+        const auto got = signature(mapped, tags);
+        std::vector<std::string> missing, extra;
+        std::set_difference(want.begin(), want.end(), got.begin(), got.end(), std::back_inserter(missing));
+        std::set_difference(got.begin(), got.end(), want.begin(), want.end(), std::back_inserter(extra));
+        INFO("missing " << missing.size() << (missing.empty() ? "" : ": " + missing[0]) << ", extra "
+                        << extra.size() << (extra.empty() ? "" : ": " + extra[0]));
+        CHECK(got == want);
+    }
+}
+
+TEST_CASE("meshio reads the msh, mesh, inp and vtu exports", "[io][export][meshio]") {
+    if (!have_meshio()) {
+        WARN("python3-meshio not installed (scripts/install-deps.sh installs it): skipped");
+        return;
+    }
+    const core::TetMesh mesh = three_region_cube();
+    const io::LabelTable names = names_for_cube();
+    const std::string dir = fixtures::temp_dir("export_meshio");
+    std::string set_to_label;
+    for (core::Label l : {1, 2, 7}) {
+        std::string upper = names.safe_name(l);
+        for (char& c : upper) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+        set_to_label += (set_to_label.empty() ? "" : ",") + upper + "=" + std::to_string(l);
+    }
+    const std::vector<std::string> with_faces = signature(mesh, pair_tags(mesh));
+    const std::vector<std::string> tets_only = signature(mesh, {});
+    for (const auto format : {io::MeshFormat::Msh41, io::MeshFormat::Msh22, io::MeshFormat::Medit,
+                              io::MeshFormat::Abaqus}) {
+        const std::string path = dir + "/" + io::export_file_name(format);
+        INFO(path);
+        io::write_mesh(mesh, path, format, names);
+        const std::string dump = meshio_dump(path, set_to_label);
+        CHECK(meshio_nodes(dump) == mesh.node_count());
+        CHECK(lines_of(dump) == (format == io::MeshFormat::Abaqus ? tets_only : with_faces));
+    }
+    // VTU: tets with the cell array "region". Without label names: meshio 5.0 cannot read
+    // string field arrays (<Array type="String">) in VTK's appended raw layout.
+    const std::string vtu = dir + "/mesh.vtu";
+    io::write_mesh(mesh, vtu, io::MeshFormat::Vtu, {});
+    const Run r = run("/usr/bin/python3 -c \"import meshio,sys; m=meshio.read(sys.argv[1]); "
+                      "print(len(m.points), sum(len(c.data) for c in m.cells if c.type=='tetra'), "
+                      "sorted(set(int(x) for x in m.cell_data['region'][0])))\" '" + vtu + "'");
+    INFO(r.out);
+    REQUIRE(r.exit_code == 0);
+    CHECK_THAT(r.out, Catch::Contains(std::to_string(mesh.node_count()) + " " +
+                                      std::to_string(mesh.tet_count()) + " [1, 2, 7]"));
+}
+
+TEST_CASE("FEBio export: parts, domains, placeholder materials and surfaces", "[io][export][febio]") {
+    if (run("/usr/bin/python3 -c 'import xml.etree.ElementTree'").exit_code != 0) {
+        WARN("python3 not installed: skipped");
+        return;
+    }
+    const core::TetMesh mesh = three_region_cube();
+    const io::LabelTable names = names_for_cube();
+    const std::string path = fixtures::temp_dir("export_febio") + "/mesh.feb";
+    io::write_mesh(mesh, path, io::MeshFormat::Febio, names);
+    // No FEBio binary here: an XML parser checks the structure and the counts.
+    const Run r = run(
+        "/usr/bin/python3 -c \"import sys, xml.etree.ElementTree as E\n"
+        "r = E.parse(sys.argv[1]).getroot()\n"
+        "assert r.tag == 'febio_spec' and r.get('version') == '4.0'\n"
+        "print('nodes', len(r.findall('Mesh/Nodes/node')))\n"
+        "for e in r.findall('Mesh/Elements'): print('part', e.get('name'), e.get('type'), len(e))\n"
+        "for m in r.findall('Material/material'): print('material', m.get('name'))\n"
+        "for d in r.findall('MeshDomains/SolidDomain'): print('domain', d.get('name'), d.get('mat'))\n"
+        "for s in r.findall('Mesh/Surface'): print('surface', s.get('name'), len(s.findall('tri3')))\n"
+        "\" '" + path + "'");
+    INFO(r.out);
+    REQUIRE(r.exit_code == 0);
+    CHECK_THAT(r.out, Catch::Contains("nodes " + std::to_string(mesh.node_count()) + "\n"));
+    std::map<core::Label, std::size_t> per_region;
+    for (core::Label l : mesh.region) ++per_region[l];
+    for (const auto& [label, count] : per_region) {
+        const std::string name = names.safe_name(label);
+        CHECK_THAT(r.out, Catch::Contains("part " + name + " tet4 " + std::to_string(count) + "\n"));
+        CHECK_THAT(r.out, Catch::Contains("material " + name + "\n"));
+        CHECK_THAT(r.out, Catch::Contains("domain " + name + " " + name + "\n"));
+    }
+    std::map<std::pair<int, int>, std::size_t> per_pair;
+    for (std::size_t f = 0; f < mesh.face_count(); ++f) ++per_pair[{mesh.region_in[f], mesh.region_out[f]}];
+    for (const auto& [pair, count] : per_pair) {
+        const std::string name = pair.second == 0
+                                     ? "boundary_" + names.safe_name(pair.first)
+                                     : "interface_" + names.safe_name(pair.first) + "_" + names.safe_name(pair.second);
+        CHECK_THAT(r.out, Catch::Contains("surface " + name + " " + std::to_string(count) + "\n"));
+    }
+}
+
+TEST_CASE("Abaqus surfaces are the faces of region_in's tets", "[io][export]") {
+    const core::TetMesh mesh = three_region_cube();
+    const std::string path = fixtures::temp_dir("export_abaqus") + "/mesh.inp";
+    io::write_mesh(mesh, path, io::MeshFormat::Abaqus, {});
+    // Count the faces listed in the element sets of each surface and compare with the pairs.
+    std::ifstream in(path);
+    std::map<std::string, std::size_t> set_size;
+    std::map<std::string, std::vector<std::string>> surface_sets;
+    std::string line, current, surface;
+    while (std::getline(in, line)) {
+        if (line.rfind("*ELSET, ELSET=", 0) == 0) {
+            current = line.substr(14);
+            surface.clear();
+        } else if (line.rfind("*SURFACE", 0) == 0) {
+            surface = line.substr(line.find("NAME=") + 5);
+            current.clear();
+        } else if (line[0] == '*') {
+            current.clear();
+            surface.clear();
+        } else if (!current.empty() && line.rfind("**", 0) != 0) {
+            set_size[current] += static_cast<std::size_t>(std::count(line.begin(), line.end(), ',')) + 1;
+        } else if (!surface.empty()) {
+            surface_sets[surface].push_back(line.substr(0, line.find(',')));
+        }
+    }
+    std::map<std::pair<int, int>, std::size_t> per_pair;
+    for (std::size_t f = 0; f < mesh.face_count(); ++f) ++per_pair[{mesh.region_in[f], mesh.region_out[f]}];
+    REQUIRE(surface_sets.size() == per_pair.size());
+    for (const auto& [pair, count] : per_pair) {
+        const std::string name = pair.second == 0 ? "boundary_region_" + std::to_string(pair.first)
+                                                  : "interface_region_" + std::to_string(pair.first) + "_region_" +
+                                                        std::to_string(pair.second);
+        INFO(name);
+        REQUIRE(surface_sets.count(name));
+        std::size_t faces = 0;
+        for (const auto& s : surface_sets[name]) faces += set_size[s];
+        CHECK(faces == count);
+    }
+}
