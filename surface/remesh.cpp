@@ -1,0 +1,440 @@
+#include "surface/remesh.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <map>
+#include <sstream>
+#include <string>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include "pipeline/core/error.h"
+#include "pipeline/core/quality.h"
+#include "pipeline/core/self_intersection.h"
+#include "surface/features.h"
+#include "surface/front_triangulate.h"
+#include "surface/size_field.h"
+#include "surface/surface_smoothing.h"
+
+namespace frontmesh::surface {
+
+namespace {
+
+// Wall time of sub-steps, reported as counters (never used to decide anything).
+class StepClock {
+public:
+    explicit StepClock(core::StageContext& ctx) : ctx_(ctx), last_(now()) {}
+    void lap(const std::string& step) {
+        const auto t = now();
+        ctx_.count("remesh.time_" + step + "_s", std::chrono::duration<double>(t - last_).count());
+        last_ = t;
+    }
+
+private:
+    static std::chrono::steady_clock::time_point now() { return std::chrono::steady_clock::now(); }
+    core::StageContext& ctx_;
+    std::chrono::steady_clock::time_point last_;
+};
+
+std::string point_text(const Eigen::Vector3d& p) {
+    std::ostringstream out;
+    out << "(" << p.x() << ", " << p.y() << ", " << p.z() << ") mm";
+    return out.str();
+}
+
+// One feature curve cut into segments whose lengths follow the size field (§2: "specifying
+// node distribution on the features"): arc length integrated with density 1/h.
+struct DiscreteCurve {
+    std::vector<std::int32_t> ids;        // output vertex ids along the curve
+    std::vector<Eigen::Vector3d> points;  // their positions
+    std::vector<double> s;                // arc length on the background polyline, mm
+    std::vector<std::int32_t> faces;      // a background face at each point
+};
+
+DiscreteCurve discretise(const core::SurfaceNetwork& bg, const FeatureCurve& curve,
+                         const SizeField& size, const EdgeTable& edges, int min_segments) {
+    const auto& cv = curve.vertices;
+    const std::size_t n = cv.size();
+    std::vector<double> arc(n, 0.0), integral(n, 0.0);
+    for (std::size_t i = 1; i < n; ++i) {
+        const double len = (bg.point(cv[i]) - bg.point(cv[i - 1])).norm();
+        arc[i] = arc[i - 1] + len;
+        // Trapezoid rule for the integral of 1/h along the segment.
+        integral[i] = integral[i - 1] +
+                      0.5 * len * (1.0 / size.at_vertex(cv[i - 1]) + 1.0 / size.at_vertex(cv[i]));
+    }
+    const double total = integral.back();
+    const int segments = std::max(min_segments, static_cast<int>(std::lround(total)));
+    // A background face next to each polyline segment, for size queries.
+    auto segment_face = [&](std::size_t i) {
+        const std::int32_t a = std::min(cv[i], cv[i + 1]), b = std::max(cv[i], cv[i + 1]);
+        const auto it = std::lower_bound(edges.vertices.begin(), edges.vertices.end(),
+                                         std::array<std::int32_t, 2>{a, b});
+        FM_CHECK(it != edges.vertices.end() && (*it)[0] == a && (*it)[1] == b);
+        const auto e = std::size_t(it - edges.vertices.begin());
+        return edges.edge_faces[std::size_t(edges.face_offsets[e])];
+    };
+    DiscreteCurve out;
+    out.points.push_back(bg.point(cv.front()));
+    out.s.push_back(0.0);
+    out.faces.push_back(segment_face(0));
+    std::size_t i = 0;
+    for (int k = 1; k < segments; ++k) {
+        const double target = total * k / segments;
+        while (i + 2 < n && integral[i + 1] < target) ++i;
+        const double span = integral[i + 1] - integral[i];
+        const double t = span > 0.0 ? std::clamp((target - integral[i]) / span, 0.0, 1.0) : 0.0;
+        out.points.push_back((1.0 - t) * bg.point(cv[i]) + t * bg.point(cv[i + 1]));
+        out.s.push_back(arc[i] + t * (arc[i + 1] - arc[i]));
+        out.faces.push_back(segment_face(i));
+    }
+    out.points.push_back(bg.point(cv.back()));
+    out.s.push_back(arc.back());
+    out.faces.push_back(segment_face(n - 2));
+    return out;
+}
+
+}  // namespace
+
+void validate(const RemeshParams& p) {
+    auto fail = [](const std::string& key, const std::string& what) {
+        FM_THROW(InputError, "remesh." + key + ": " + what);
+    };
+    if (!(p.edge_length >= 0.0) || !std::isfinite(p.edge_length))
+        fail("edge_length", "must be >= 0 mm (0 = derived from the input)");
+    if (!(p.gradation >= 1.0) || !std::isfinite(p.gradation)) fail("gradation", "must be >= 1");
+    if (!(p.min_edge_length >= 0.0)) fail("min_edge_length", "must be >= 0 mm");
+    if (!(p.max_edge_length >= 0.0)) fail("max_edge_length", "must be >= 0 mm");
+    if (p.min_edge_length > 0.0 && p.max_edge_length > 0.0 &&
+        p.min_edge_length > p.max_edge_length)
+        fail("min_edge_length", "larger than remesh.max_edge_length");
+    if (!(p.curvature_angle_deg >= 0.0 && p.curvature_angle_deg < 90.0))
+        fail("curvature_angle_deg", "must be in [0, 90) degrees");
+    if (p.thickness_layers < 0) fail("thickness_layers", "must be >= 0");
+    if (!(p.feature_angle_deg >= 0.0 && p.feature_angle_deg < 180.0))
+        fail("feature_angle_deg", "must be in [0, 180) degrees");
+    for (const auto& [label, size] : p.label_edge_length)
+        if (!(size > 0.0) || !std::isfinite(size))
+            fail("label_edge_length", "label " + std::to_string(label) + " needs a size > 0 mm");
+    if (p.smoothing_iterations < 0) fail("smoothing_iterations", "must be >= 0");
+    if (!(p.flip_max_dihedral_deg >= 0.0 && p.flip_max_dihedral_deg <= 90.0))
+        fail("flip_max_dihedral_deg", "must be in [0, 90] degrees");
+}
+
+double default_edge_length(const core::SurfaceNetwork& background) {
+    return 2.0 * mean_edge_length(background);
+}
+
+RemeshResult remesh(const core::SurfaceNetwork& bg, const RemeshParams& params,
+                    core::StageContext& ctx) {
+    validate(params);
+    if (bg.face_count() == 0) FM_THROW(InputError, "remesh: the background surface is empty");
+    for (const auto& c : core::check_region_boundaries(bg))
+        if (!c.is_closed())
+            FM_THROW(InputError, "remesh: region " + std::to_string(c.region) +
+                                     " of the background is not closed (run repair first)");
+
+    // 1. Features.
+    StepClock clock(ctx);
+    ctx.progress(0.0, "features");
+    const Features features = find_features(bg, params.feature_angle_deg, ctx);
+    clock.lap("features");
+
+    // 2. Size field.
+    ctx.progress(0.05, "size field");
+    SizeFieldParams sp;
+    sp.edge_length = params.edge_length > 0.0 ? params.edge_length : default_edge_length(bg);
+    sp.gradation = params.gradation;
+    sp.min_edge_length = params.min_edge_length;
+    sp.max_edge_length = params.max_edge_length;
+    sp.curvature_angle_deg = params.curvature_angle_deg;
+    sp.thickness_layers = params.thickness_layers;
+    sp.label_edge_length = params.label_edge_length;
+    const SizeField size = build_size_field(bg, sp, ctx);
+    clock.lap("size_field");
+    ctx.count("remesh.edge_length_mm", sp.edge_length);
+    ctx.info("remesh: h = " + std::to_string(sp.edge_length) + " mm, " +
+             std::to_string(features.patches.size()) + " patches, " +
+             std::to_string(features.curves.size()) + " curves");
+
+    // 3. Curves first, shared by every patch they bound. Output vertices: corners, then each
+    // curve's other points.
+    ctx.progress(0.15, "curves");
+    core::SurfaceNetwork out;
+    std::vector<std::int32_t> vertex_face;
+    std::map<std::int32_t, std::int32_t> corner_id;
+    for (const std::int32_t v : features.corners) {
+        corner_id[v] = out.add_vertex(bg.point(v));
+        vertex_face.push_back(-1);
+    }
+    std::map<std::pair<std::int32_t, std::int32_t>, int> end_pairs;
+    for (const auto& c : features.curves)
+        if (!c.is_closed)
+            ++end_pairs[{std::min(c.vertices.front(), c.vertices.back()),
+                         std::max(c.vertices.front(), c.vertices.back())}];
+    std::vector<DiscreteCurve> curves;
+    curves.reserve(features.curves.size());
+    for (const auto& c : features.curves) {
+        const std::int32_t a = c.vertices.front(), b = c.vertices.back();
+        int min_segments = 1;
+        if (c.is_closed || a == b) min_segments = 3;
+        else if (end_pairs[{std::min(a, b), std::max(a, b)}] > 1) min_segments = 2;
+        DiscreteCurve d = discretise(bg, c, size, features.edges, min_segments);
+        d.ids.resize(d.points.size());
+        for (std::size_t k = 0; k < d.points.size(); ++k) {
+            const bool first = k == 0, last = k + 1 == d.points.size();
+            if (!c.is_closed && (first || last)) {
+                d.ids[k] = corner_id.at(first ? a : b);
+            } else if (c.is_closed && last) {
+                d.ids[k] = d.ids[0];
+            } else {
+                d.ids[k] = out.add_vertex(d.points[k]);
+                vertex_face.push_back(d.faces[k]);
+            }
+        }
+        curves.push_back(std::move(d));
+    }
+    const std::size_t curve_points = out.vertex_count();
+    ctx.count("remesh.curve_points", double(curve_points));
+
+    // 4. Patches: background patch, loops from the shared curve points, advancing front.
+    ctx.progress(0.2, "advancing front");
+    const std::size_t np = features.patches.size();
+    std::vector<BackgroundPatch> patches;
+    patches.reserve(np);
+    for (const auto& p : features.patches) patches.emplace_back(bg, p.faces, false);
+    std::vector<std::vector<std::int32_t>> loop_ids(np);
+    std::vector<std::vector<PatchLoop>> loops(np);
+    for (std::size_t p = 0; p < np; ++p) {
+        for (const auto& loop : features.patches[p].loops) {
+            PatchLoop pl;
+            for (const auto& use : loop) {
+                const auto& ids = curves[std::size_t(use.curve)].ids;
+                const std::size_t m = ids.size();
+                for (std::size_t k = 0; k + 1 < m; ++k) {
+                    const std::int32_t id = use.forward ? ids[k] : ids[m - 1 - k];
+                    loop_ids[p].push_back(id);
+                    pl.points.push_back(out.point(id));
+                }
+            }
+            loops[p].push_back(std::move(pl));
+        }
+    }
+    // Loops that pass a point twice (a patch touching itself at a corner) are legal but the
+    // hardest case for the front; counted for diagnosis.
+    {
+        std::size_t repeated = 0;
+        for (std::size_t p = 0; p < np; ++p) {
+            std::vector<std::int32_t> ids = loop_ids[p];
+            std::sort(ids.begin(), ids.end());
+            if (std::adjacent_find(ids.begin(), ids.end()) != ids.end()) ++repeated;
+        }
+        ctx.count("remesh.patches_with_repeated_loop_points", double(repeated));
+    }
+    const SizeFunction size_function = [&size](const Eigen::Vector3d& x, std::int32_t face) {
+        return size.at(x, face);
+    };
+    FrontParams fp;
+    std::vector<PatchMesh> meshes(np);
+    std::vector<core::StageContext> contexts(np);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, np, 1), [&](const auto& range) {
+        for (std::size_t p = range.begin(); p != range.end(); ++p)
+            meshes[p] = triangulate_patch(patches[p], loops[p], size_function, fp, contexts[p]);
+    });
+    for (std::size_t p = 0; p < np; ++p) {
+        for (const auto& [name, value] : contexts[p].counters()) ctx.add(name, value);
+        for (const auto& w : contexts[p].warnings()) ctx.warn(w);
+    }
+
+    // 5. One network: loop points are the shared curve points, exactly.
+    ctx.progress(0.6, "assembly");
+    std::vector<std::int32_t> face_patch;
+    for (std::size_t p = 0; p < np; ++p) {
+        const PatchMesh& mesh = meshes[p];
+        const std::size_t nloop = loop_ids[p].size();
+        FM_CHECK(mesh.points.size() >= nloop && mesh.point_face.size() == mesh.points.size());
+        std::vector<std::int32_t> map(mesh.points.size());
+        for (std::size_t k = 0; k < nloop; ++k) {
+            map[k] = loop_ids[p][k];
+            if (mesh.points[k] != out.point(map[k]))
+                FM_THROW(InternalError, "remesh: patch " + std::to_string(p) +
+                                            " moved loop point " + point_text(mesh.points[k]));
+        }
+        for (std::size_t k = nloop; k < mesh.points.size(); ++k) {
+            map[k] = out.add_vertex(mesh.points[k]);
+            vertex_face.push_back(mesh.point_face[k]);
+        }
+        const Patch& patch = features.patches[p];
+        for (const auto& t : mesh.faces) {
+            out.add_face(map[std::size_t(t[0])], map[std::size_t(t[1])], map[std::size_t(t[2])],
+                         patch.region_in, patch.region_out);
+            face_patch.push_back(static_cast<std::int32_t>(p));
+        }
+    }
+    ctx.count("remesh.front_faces", double(out.face_count()));
+    clock.lap("front");
+
+    // 6. Angle-based smoothing with projection, curve vertices on their curves, flips.
+    ctx.progress(0.7, "smoothing");
+    SurfaceConstraints constraints;
+    constraints.face_patch = std::move(face_patch);
+    constraints.vertex_face = vertex_face;
+    for (std::size_t c = 0; c < curves.size(); ++c) {
+        SurfaceCurve sc;
+        sc.is_closed = features.curves[c].is_closed;
+        for (const auto v : features.curves[c].vertices) sc.polyline.push_back(bg.point(v));
+        sc.vertices = curves[c].ids;
+        sc.s = curves[c].s;
+        constraints.curves.push_back(std::move(sc));
+    }
+    const std::vector<double> front_xyz = out.xyz;  // positions before smoothing
+    if (params.smoothing_iterations > 0) {
+        std::vector<const BackgroundPatch*> pointers;
+        for (const auto& p : patches) pointers.push_back(&p);
+        SmoothingParams smp;
+        smp.iterations = params.smoothing_iterations;
+        smp.flip_max_dihedral_deg = params.flip_max_dihedral_deg;
+        core::StageContext sub;
+        smooth_surface(out, pointers, constraints, smp, sub);
+        for (const auto& [name, value] : sub.counters()) ctx.add(name, value);
+    }
+
+    clock.lap("smoothing");
+
+    // 7. Checks.
+    ctx.progress(0.9, "checks");
+    const auto checks = core::check_region_boundaries(out);
+    for (const auto& c : checks) {
+        if (!c.is_closed() || !c.is_oriented() || c.nonmanifold_edges > 0)
+            FM_THROW(GeometryError, "remesh: region " + std::to_string(c.region) + " has " +
+                                        std::to_string(c.open_edges) + " open, " +
+                                        std::to_string(c.misoriented_edges) + " misoriented, " +
+                                        std::to_string(c.nonmanifold_edges) +
+                                        " non-manifold edges after remeshing");
+        const double before = core::enclosed_volume(bg, c.region);
+        ctx.count("remesh.volume_change_percent.region_" + std::to_string(c.region),
+                  before != 0.0 ? 100.0 * (c.volume - before) / before : 0.0);
+    }
+    if (params.check_self_intersections) {
+        // A local fix: vertices of intersecting faces go back to where the front put them
+        // (smoothing moved them); a few rounds, then the first remaining pair is an error.
+        auto pairs = core::self_intersections(out, 1000);
+        ctx.count("remesh.self_intersections_after_smoothing", double(pairs.size()));
+        for (int round = 0; round < 3 && !pairs.empty(); ++round) {
+            for (const auto& [f, g] : pairs)
+                for (const std::int32_t face : {f, g})
+                    for (const auto v : out.faces[std::size_t(face)])
+                        for (int k = 0; k < 3; ++k)
+                            out.xyz[3 * std::size_t(v) + std::size_t(k)] =
+                                front_xyz[3 * std::size_t(v) + std::size_t(k)];
+            pairs = core::self_intersections(out, 1000);
+        }
+        ctx.count("remesh.self_intersections", double(pairs.size()));
+        if (!pairs.empty()) {
+            const auto& t = out.faces[std::size_t(pairs[0].first)];
+            const Eigen::Vector3d c = (out.point(t[0]) + out.point(t[1]) + out.point(t[2])) / 3.0;
+            FM_THROW(GeometryError,
+                     "remesh: faces " + std::to_string(pairs[0].first) + " and " +
+                         std::to_string(pairs[0].second) + " intersect near " + point_text(c) +
+                         " (region " + std::to_string(out.region_in[std::size_t(pairs[0].first)]) +
+                         "); try a smaller remesh.edge_length there");
+        }
+    }
+    clock.lap("checks");
+
+    RemeshResult result;
+    result.target_size.resize(out.vertex_count());
+    for (std::size_t v = 0; v < out.vertex_count(); ++v) {
+        // Curve points may have slid off their face hint: use the nearest background vertex.
+        const std::int32_t face = v < curve_points ? -1 : constraints.vertex_face[v];
+        result.target_size[v] = size.at(out.point(static_cast<std::int32_t>(v)), face);
+    }
+    const SurfaceQuality q = surface_quality(out);
+    ctx.count("remesh.vertices", double(out.vertex_count()));
+    ctx.count("remesh.faces", double(out.face_count()));
+    ctx.count("remesh.min_angle_deg", q.min_angle_deg);
+    ctx.count("remesh.mean_eta", q.mean_eta);
+    ctx.count("remesh.fraction_min_angle_ge_30", q.fraction_at_least_30_deg);
+    ctx.progress(1.0, "done");
+    result.surface = std::move(out);
+    return result;
+}
+
+HausdorffDistance hausdorff_distance(const core::SurfaceNetwork& a, const core::SurfaceNetwork& b) {
+    auto one_way = [](const core::SurfaceNetwork& from, const core::SurfaceNetwork& to,
+                      double& max_out, double& mean_out) {
+        std::vector<std::int32_t> all(to.face_count());
+        for (std::size_t f = 0; f < all.size(); ++f) all[f] = static_cast<std::int32_t>(f);
+        const BackgroundPatch target(to, std::move(all), false);
+        // Samples: vertices, then per face the centroid and the three edge midpoints.
+        const std::size_t nv = from.vertex_count(), nf = from.face_count();
+        std::vector<double> dist(nv + 4 * nf, 0.0);
+        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nv + nf, 512), [&](const auto& r) {
+            for (std::size_t i = r.begin(); i != r.end(); ++i) {
+                if (i < nv) {
+                    dist[i] = target.project(from.point(static_cast<std::int32_t>(i))).distance;
+                    continue;
+                }
+                const auto& t = from.faces[i - nv];
+                const Eigen::Vector3d p0 = from.point(t[0]), p1 = from.point(t[1]),
+                                      p2 = from.point(t[2]);
+                const Eigen::Vector3d samples[4] = {(p0 + p1 + p2) / 3.0, 0.5 * (p0 + p1),
+                                                    0.5 * (p1 + p2), 0.5 * (p2 + p0)};
+                for (int k = 0; k < 4; ++k)
+                    dist[nv + 4 * (i - nv) + std::size_t(k)] = target.project(samples[k]).distance;
+            }
+        });
+        max_out = 0.0;
+        double sum = 0.0;
+        for (const double d : dist) {
+            max_out = std::max(max_out, d);
+            sum += d;
+        }
+        mean_out = dist.empty() ? 0.0 : sum / double(dist.size());
+    };
+    HausdorffDistance h;
+    if (a.face_count() == 0 || b.face_count() == 0)
+        FM_THROW(InputError, "hausdorff_distance: empty surface");
+    one_way(a, b, h.a_to_b, h.mean_a_to_b);
+    one_way(b, a, h.b_to_a, h.mean_b_to_a);
+    return h;
+}
+
+SurfaceQuality surface_quality(const core::SurfaceNetwork& s) {
+    SurfaceQuality q;
+    q.faces = s.face_count();
+    if (q.faces == 0) return q;
+    std::size_t below_20 = 0, at_least_30 = 0;
+    double eta_sum = 0.0;
+    for (const auto& t : s.faces) {
+        const Eigen::Vector3d a = s.point(t[0]), b = s.point(t[1]), c = s.point(t[2]);
+        const double angle = core::triangle_min_angle_deg(a, b, c);
+        const double eta = core::triangle_skewness(a, b, c);  // Eq. 2
+        q.min_angle_deg = std::min(q.min_angle_deg, angle);
+        q.max_eta = std::max(q.max_eta, eta);
+        eta_sum += eta;
+        if (angle < 20.0) ++below_20;
+        if (angle >= 30.0) ++at_least_30;
+        const auto bin = std::min<std::size_t>(9, std::size_t(std::max(0.0, eta) * 10.0));
+        ++q.eta_histogram[bin];
+    }
+    q.mean_eta = eta_sum / double(q.faces);
+    q.fraction_below_20_deg = double(below_20) / double(q.faces);
+    q.fraction_at_least_30_deg = double(at_least_30) / double(q.faces);
+    return q;
+}
+
+double edge_length_fraction(const core::SurfaceNetwork& s, double lo, double hi) {
+    const EdgeTable et = edge_table(s);
+    if (et.edge_count() == 0) return 0.0;
+    std::size_t inside = 0;
+    for (const auto& e : et.vertices) {
+        const double len = (s.point(e[0]) - s.point(e[1])).norm();
+        if (len >= lo && len <= hi) ++inside;
+    }
+    return double(inside) / double(et.edge_count());
+}
+
+}  // namespace frontmesh::surface

@@ -1,0 +1,80 @@
+#pragma once
+// Remesh stage (paper §2, issue 3): SurfaceNetwork (background) -> SurfaceNetwork, isotropic,
+// graded, every vertex on the background, interfaces shared, junction curves kept.
+
+#include <array>
+#include <cstddef>
+#include <map>
+#include <vector>
+
+#include "pipeline/core/stage_context.h"
+#include "pipeline/core/surface_network.h"
+
+namespace frontmesh::surface {
+
+/// Parameters of the remesh stage; recipe keys `remesh.<field>`.
+struct RemeshParams {
+    /// h, mm, >= 0; 0 = derived from the input: twice the mean background edge length (about
+    /// 1.3 voxels on a marching-cubes surface).
+    double edge_length = 0.0;
+    double gradation = 1.3;        ///< >= 1: max growth of h per mm is (g - 1)
+    double min_edge_length = 0.0;  ///< mm, >= 0; 0 = h / 4
+    double max_edge_length = 0.0;  ///< mm, >= 0; 0 = 4 h
+    double curvature_angle_deg = 0.0;  ///< [0, 90): max turning angle per edge; 0 = off
+    int thickness_layers = 0;  ///< >= 0: thin regions get N edges across; 0 = off
+    /// [0, 180): edges whose faces turn by more are sharp features; 0 = off (marching-cubes
+    /// staircases would otherwise become features).
+    double feature_angle_deg = 0.0;
+    std::map<core::Label, double> label_edge_length;  ///< mm per region label, > 0
+    int smoothing_iterations = 5;  ///< >= 0: angle-based smoothing + flip passes
+    double flip_max_dihedral_deg = 10.0;  ///< [0, 90]: flip only edges this flat
+    bool check_self_intersections = true;  ///< exact check of the result (GeometryError)
+};
+
+/// Throws InputError naming the key (`remesh.*`) when a value is out of range.
+void validate(const RemeshParams& params);
+
+struct RemeshResult {
+    core::SurfaceNetwork surface;     ///< closed, oriented, regions as in the background
+    std::vector<double> target_size;  ///< per output vertex, mm
+};
+
+/// h used for edge_length 0: twice the mean edge length of the background (mm).
+double default_edge_length(const core::SurfaceNetwork& background);
+
+/// Features -> size field -> curves discretised by the size field -> every patch triangulated
+/// by the advancing front (TBB-parallel over patches, deterministic) -> one network with the
+/// curve points shared exactly -> angle-based smoothing with projection and edge flips ->
+/// checks. Counters `remesh.*` go to ctx.
+/// Throws InputError (bad params, empty background), MeshingError (a patch front stalls) or
+/// GeometryError (result open, misoriented or self-intersecting; names region or place).
+RemeshResult remesh(const core::SurfaceNetwork& background, const RemeshParams& params,
+                    core::StageContext& ctx);
+
+/// Sampled two-sided distance between two surfaces (mm): vertices, edge midpoints and face
+/// centroids of each projected onto the other (closest point through an ADT).
+struct HausdorffDistance {
+    double a_to_b = 0.0;  ///< max over samples of a of the distance to b
+    double b_to_a = 0.0;
+    double mean_a_to_b = 0.0;
+    double mean_b_to_a = 0.0;
+    double max() const { return a_to_b > b_to_a ? a_to_b : b_to_a; }
+};
+HausdorffDistance hausdorff_distance(const core::SurfaceNetwork& a, const core::SurfaceNetwork& b);
+
+/// Triangle quality of a surface (paper Eq. 2 eta and angles).
+struct SurfaceQuality {
+    std::size_t faces = 0;
+    double min_angle_deg = 180.0;
+    double mean_eta = 0.0;
+    double max_eta = 0.0;
+    double fraction_below_20_deg = 0.0;     ///< faces with min angle < 20 degrees
+    double fraction_at_least_30_deg = 0.0;  ///< faces with min angle >= 30 degrees
+    std::array<std::size_t, 10> eta_histogram{};  ///< bins of width 0.1 over [0, 1]
+};
+SurfaceQuality surface_quality(const core::SurfaceNetwork& surface);
+
+/// Fraction of the surface's edges whose length lies in [lo, hi] mm.
+double edge_length_fraction(const core::SurfaceNetwork& surface, double lo, double hi);
+
+}  // namespace frontmesh::surface

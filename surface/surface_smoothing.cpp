@@ -1,0 +1,360 @@
+#include "surface/surface_smoothing.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <string>
+#include <unordered_set>
+
+#include "pipeline/core/error.h"
+#include "pipeline/core/quality.h"
+#include "surface/features.h"
+
+namespace frontmesh::surface {
+
+namespace {
+
+enum class Kind : std::uint8_t { Free, Curve, Fixed };
+
+struct CurveSlot {
+    std::int32_t curve = -1;
+    std::int32_t index = -1;  // position in SurfaceCurve::vertices
+};
+
+// Arc-length evaluation of one background polyline.
+struct Polyline {
+    std::vector<Eigen::Vector3d> points;
+    std::vector<double> cumulative;  // arc length at each point
+    double length() const { return cumulative.empty() ? 0.0 : cumulative.back(); }
+    Eigen::Vector3d at(double s) const {
+        if (points.size() < 2) return points.empty() ? Eigen::Vector3d::Zero() : points[0];
+        const auto it = std::upper_bound(cumulative.begin(), cumulative.end(), s);
+        std::size_t i = it == cumulative.begin() ? 0 : std::size_t(it - cumulative.begin()) - 1;
+        i = std::min(i, points.size() - 2);
+        const double len = cumulative[i + 1] - cumulative[i];
+        const double t = len > 0.0 ? std::clamp((s - cumulative[i]) / len, 0.0, 1.0) : 0.0;
+        return (1.0 - t) * points[i] + t * points[i + 1];
+    }
+};
+
+Eigen::Vector3d raw_normal(const core::SurfaceNetwork& s, const std::array<std::int32_t, 3>& t) {
+    return (s.point(t[1]) - s.point(t[0])).cross(s.point(t[2]) - s.point(t[0]));
+}
+
+double global_min_angle(const core::SurfaceNetwork& s) {
+    double smallest = 180.0;
+    for (const auto& t : s.faces)
+        smallest = std::min(smallest,
+                            core::triangle_min_angle_deg(s.point(t[0]), s.point(t[1]), s.point(t[2])));
+    return smallest;
+}
+
+class Smoother {
+public:
+    Smoother(core::SurfaceNetwork& s, const std::vector<const BackgroundPatch*>& patches,
+             SurfaceConstraints& c, const SmoothingParams& p)
+        : s_(s), patches_(patches), c_(c), p_(p) {
+        const std::size_t n = s.vertex_count();
+        FM_CHECK(c.face_patch.size() == s.face_count());
+        FM_CHECK(c.vertex_face.size() == n);
+        kind_.assign(n, Kind::Free);
+        slot_.assign(n, {});
+        polylines_.resize(c.curves.size());
+        for (std::size_t ci = 0; ci < c.curves.size(); ++ci) {
+            const SurfaceCurve& curve = c.curves[ci];
+            FM_CHECK(curve.vertices.size() == curve.s.size() && curve.vertices.size() >= 2);
+            Polyline& pl = polylines_[ci];
+            pl.points = curve.polyline;
+            pl.cumulative.assign(pl.points.size(), 0.0);
+            for (std::size_t i = 1; i < pl.points.size(); ++i)
+                pl.cumulative[i] = pl.cumulative[i - 1] + (pl.points[i] - pl.points[i - 1]).norm();
+            const std::size_t last = curve.vertices.size() - 1;
+            for (std::size_t k = 0; k <= last; ++k) {
+                const auto v = std::size_t(curve.vertices[k]);
+                const bool end = k == 0 || k == last;
+                if (end && !(curve.is_closed && k == 0)) {
+                    if (!(curve.is_closed && k == last)) kind_[v] = Kind::Fixed;
+                    continue;
+                }
+                if (kind_[v] != Kind::Free) {
+                    kind_[v] = Kind::Fixed;  // on two curves: a corner in all but name
+                    continue;
+                }
+                kind_[v] = Kind::Curve;
+                slot_[v] = {static_cast<std::int32_t>(ci), static_cast<std::int32_t>(k)};
+            }
+        }
+        cos_turn_ = std::cos(p.max_normal_turn_deg * std::numbers::pi / 180.0);
+        cos_flat_ = std::cos(p.flip_max_dihedral_deg * std::numbers::pi / 180.0);
+        build_incidence();
+        // A free vertex whose faces lie on several patches has no single surface to move on.
+        for (std::size_t v = 0; v < n; ++v) {
+            if (kind_[v] != Kind::Free) continue;
+            const auto b = offsets_[v], e = offsets_[v + 1];
+            if (b == e) {
+                kind_[v] = Kind::Fixed;
+                continue;
+            }
+            const auto patch = c.face_patch[std::size_t(incident_[std::size_t(b)])];
+            for (auto k = b; k < e; ++k)
+                if (c.face_patch[std::size_t(incident_[std::size_t(k)])] != patch)
+                    kind_[v] = Kind::Fixed;
+        }
+    }
+
+    std::size_t smooth_pass() {
+        std::size_t moves = 0;
+        for (std::size_t v = 0; v < s_.vertex_count(); ++v) {
+            const auto vi = static_cast<std::int32_t>(v);
+            if (kind_[v] == Kind::Free) {
+                if (move_free(vi)) ++moves;
+            } else if (kind_[v] == Kind::Curve) {
+                if (move_on_curve(vi)) ++moves;
+            }
+        }
+        return moves;
+    }
+
+    std::size_t flip_pass() {
+        const EdgeTable et = edge_table(s_);
+        std::unordered_set<std::int64_t> edges;
+        edges.reserve(et.edge_count() * 2);
+        const std::int64_t n = static_cast<std::int64_t>(s_.vertex_count());
+        auto key = [n](std::int32_t a, std::int32_t b) {
+            return std::int64_t(std::min(a, b)) * n + std::max(a, b);
+        };
+        std::vector<std::int32_t> valence(s_.vertex_count(), 0);
+        for (const auto& e : et.vertices) {
+            edges.insert(key(e[0], e[1]));
+            ++valence[std::size_t(e[0])];
+            ++valence[std::size_t(e[1])];
+        }
+        std::vector<std::uint8_t> dirty(s_.face_count(), 0);
+        std::size_t flips = 0;
+        for (std::size_t e = 0; e < et.edge_count(); ++e) {
+            if (et.face_count(static_cast<std::int32_t>(e)) != 2) continue;
+            const std::int32_t f = et.edge_faces[std::size_t(et.face_offsets[e])];
+            const std::int32_t g = et.edge_faces[std::size_t(et.face_offsets[e]) + 1];
+            if (dirty[std::size_t(f)] || dirty[std::size_t(g)]) continue;
+            if (c_.face_patch[std::size_t(f)] != c_.face_patch[std::size_t(g)]) continue;
+            auto [a, b] = et.vertices[e];
+            const auto& tf = s_.faces[std::size_t(f)];
+            const auto& tg = s_.faces[std::size_t(g)];
+            // Orient: f holds a -> b.
+            int i = 0;
+            while (i < 3 && !(tf[std::size_t(i)] == a && tf[std::size_t((i + 1) % 3)] == b)) ++i;
+            if (i == 3) {
+                std::swap(a, b);
+                i = 0;
+                while (i < 3 && !(tf[std::size_t(i)] == a && tf[std::size_t((i + 1) % 3)] == b))
+                    ++i;
+                if (i == 3) continue;
+            }
+            const std::int32_t c = tf[std::size_t((i + 2) % 3)];
+            std::int32_t d = -1;
+            for (int j = 0; j < 3; ++j)
+                if (tg[std::size_t(j)] == b && tg[std::size_t((j + 1) % 3)] == a)
+                    d = tg[std::size_t((j + 2) % 3)];
+            if (d < 0 || c == d || edges.count(key(c, d))) continue;
+            if (valence[std::size_t(a)] <= 3 || valence[std::size_t(b)] <= 3) continue;
+            const std::array<std::int32_t, 3> nf{c, a, d}, ng{d, b, c};
+            const Eigen::Vector3d of = raw_normal(s_, tf).normalized();
+            const Eigen::Vector3d og = raw_normal(s_, tg).normalized();
+            if (of.dot(og) < cos_flat_) continue;
+            const Eigen::Vector3d n1 = raw_normal(s_, nf), n2 = raw_normal(s_, ng);
+            if (n1.norm() <= 0.0 || n2.norm() <= 0.0) continue;
+            const Eigen::Vector3d u1 = n1.normalized(), u2 = n2.normalized();
+            const Eigen::Vector3d mean = of + og;
+            if (u1.dot(u2) < cos_flat_ || u1.dot(mean) <= 0.0 || u2.dot(mean) <= 0.0) continue;
+            const double before = std::min(min_angle(tf), min_angle(tg));
+            const double after = std::min(min_angle(nf), min_angle(ng));
+            if (!(after > before + 1e-6)) continue;
+            s_.faces[std::size_t(f)] = nf;
+            s_.faces[std::size_t(g)] = ng;
+            edges.erase(key(a, b));
+            edges.insert(key(c, d));
+            --valence[std::size_t(a)];
+            --valence[std::size_t(b)];
+            ++valence[std::size_t(c)];
+            ++valence[std::size_t(d)];
+            dirty[std::size_t(f)] = dirty[std::size_t(g)] = 1;
+            ++flips;
+        }
+        if (flips > 0) build_incidence();
+        return flips;
+    }
+
+private:
+    void build_incidence() {
+        const std::size_t n = s_.vertex_count();
+        offsets_.assign(n + 1, 0);
+        for (const auto& t : s_.faces)
+            for (const auto v : t) ++offsets_[std::size_t(v) + 1];
+        for (std::size_t v = 0; v < n; ++v) offsets_[v + 1] += offsets_[v];
+        incident_.assign(static_cast<std::size_t>(offsets_[n]), -1);
+        std::vector<std::int32_t> fill(offsets_.begin(), offsets_.end() - 1);
+        for (std::size_t f = 0; f < s_.face_count(); ++f)
+            for (const auto v : s_.faces[f])
+                incident_[std::size_t(fill[std::size_t(v)]++)] = static_cast<std::int32_t>(f);
+    }
+
+    double min_angle(const std::array<std::int32_t, 3>& t) const {
+        return core::triangle_min_angle_deg(s_.point(t[0]), s_.point(t[1]), s_.point(t[2]));
+    }
+
+    // Smallest angle of the faces around v, or -1 when one of them folds (turns by more
+    // than the limit from `old_normals`) at the current position of v.
+    double star_quality(std::int32_t v, const std::vector<Eigen::Vector3d>* old_normals) const {
+        double smallest = 180.0;
+        const auto b = offsets_[std::size_t(v)], e = offsets_[std::size_t(v) + 1];
+        for (auto k = b; k < e; ++k) {
+            const auto& t = s_.faces[std::size_t(incident_[std::size_t(k)])];
+            if (old_normals) {
+                const Eigen::Vector3d nn = raw_normal(s_, t);
+                const double len = nn.norm();
+                if (len <= 0.0 || nn.dot((*old_normals)[std::size_t(k - b)]) < cos_turn_ * len)
+                    return -1.0;
+            }
+            smallest = std::min(smallest, min_angle(t));
+        }
+        return smallest;
+    }
+
+    void star_normals(std::int32_t v, std::vector<Eigen::Vector3d>& normals) const {
+        normals.clear();
+        for (auto k = offsets_[std::size_t(v)]; k < offsets_[std::size_t(v) + 1]; ++k) {
+            const Eigen::Vector3d nn = raw_normal(s_, s_.faces[std::size_t(incident_[std::size_t(k)])]);
+            const double len = nn.norm();
+            normals.push_back(len > 0.0 ? Eigen::Vector3d(nn / len) : Eigen::Vector3d::Zero());
+        }
+    }
+
+    // Tries position q for v (already on the surface); keeps it when the star does not get
+    // worse. Restores the old position otherwise.
+    bool try_position(std::int32_t v, const Eigen::Vector3d& q) {
+        const Eigen::Vector3d old = s_.point(v);
+        if ((q - old).squaredNorm() <= 0.0) return false;
+        star_normals(v, normals_);
+        const double before = star_quality(v, nullptr);
+        s_.point(v) = q;
+        const double after = star_quality(v, &normals_);
+        if (after >= before && after > 0.0) return true;
+        s_.point(v) = old;
+        return false;
+    }
+
+    bool move_free(std::int32_t v) {
+        const auto b = offsets_[std::size_t(v)], e = offsets_[std::size_t(v) + 1];
+        if (e - b < 3) return false;
+        // Ring: directed edges x -> y of the faces (v, x, y).
+        ring_next_.clear();
+        for (auto k = b; k < e; ++k) {
+            const auto& t = s_.faces[std::size_t(incident_[std::size_t(k)])];
+            int i = 0;
+            while (t[std::size_t(i)] != v) ++i;
+            ring_next_.emplace_back(t[std::size_t((i + 1) % 3)], t[std::size_t((i + 2) % 3)]);
+        }
+        const Eigen::Vector3d P = s_.point(v);
+        Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+        int count = 0;
+        for (const auto& [x, next] : ring_next_) {
+            std::int32_t prev = -1;
+            for (const auto& [y, z] : ring_next_)
+                if (z == x) prev = y;
+            if (prev < 0) return false;  // open ring: not a free interior vertex
+            // Zhou & Shimada: rotate V_j -> P onto the bisector of the ring angle at V_j.
+            const Eigen::Vector3d vj = s_.point(x);
+            const Eigen::Vector3d a = (s_.point(prev) - vj).normalized();
+            const Eigen::Vector3d c = (s_.point(next) - vj).normalized();
+            const Eigen::Vector3d to_p = P - vj;
+            Eigen::Vector3d bis = a + c;
+            if (bis.norm() < 1e-6) bis = to_p;
+            bis.normalize();
+            if (bis.dot(to_p) < 0.0) bis = -bis;  // reflex ring angle
+            sum += vj + to_p.norm() * bis;
+            ++count;
+        }
+        const Eigen::Vector3d target = sum / count;
+        const auto patch_index = c_.face_patch[std::size_t(incident_[std::size_t(b)])];
+        const BackgroundPatch& patch = *patches_[std::size_t(patch_index)];
+        for (const double step : {1.0, 0.5}) {
+            const Eigen::Vector3d goal = P + step * (target - P);
+            const auto hint = c_.vertex_face[std::size_t(v)];
+            const auto proj = hint >= 0 ? patch.project(goal, hint) : patch.project(goal);
+            if (try_position(v, proj.point)) {
+                c_.vertex_face[std::size_t(v)] = proj.face;
+                return true;
+            }
+        }
+        return false;
+    }
+
+    bool move_on_curve(std::int32_t v) {
+        const CurveSlot slot = slot_[std::size_t(v)];
+        SurfaceCurve& curve = c_.curves[std::size_t(slot.curve)];
+        const Polyline& pl = polylines_[std::size_t(slot.curve)];
+        const std::size_t k = std::size_t(slot.index);
+        const std::size_t last = curve.vertices.size() - 1;
+        const double length = pl.length();
+        double s_prev, s_next;
+        if (k == 0) {  // first vertex of a closed curve
+            s_prev = curve.s[last - 1] - length;
+            s_next = curve.s[1];
+        } else {
+            s_prev = curve.s[k - 1];
+            s_next = curve.s[k + 1];
+        }
+        const double target = 0.5 * (s_prev + s_next);
+        for (const double step : {1.0, 0.5}) {
+            const double s_new = curve.s[k] + step * (target - curve.s[k]);
+            const double w = length > 0.0 ? s_new - length * std::floor(s_new / length) : 0.0;
+            if (try_position(v, pl.at(w))) {
+                curve.s[k] = s_new;
+                if (k == 0) curve.s[last] = s_new + length;
+                return true;
+            }
+        }
+        return false;
+    }
+
+    core::SurfaceNetwork& s_;
+    const std::vector<const BackgroundPatch*>& patches_;
+    SurfaceConstraints& c_;
+    const SmoothingParams& p_;
+    std::vector<Kind> kind_;
+    std::vector<CurveSlot> slot_;
+    std::vector<Polyline> polylines_;
+    std::vector<std::int32_t> offsets_, incident_;
+    std::vector<Eigen::Vector3d> normals_;
+    std::vector<std::pair<std::int32_t, std::int32_t>> ring_next_;
+    double cos_turn_ = 0.0, cos_flat_ = 1.0;
+};
+
+}  // namespace
+
+SmoothingReport smooth_surface(core::SurfaceNetwork& surface,
+                               const std::vector<const BackgroundPatch*>& patches,
+                               SurfaceConstraints& constraints, const SmoothingParams& params,
+                               core::StageContext& ctx) {
+    if (params.iterations < 0)
+        FM_THROW(InputError, "remesh.smoothing_iterations: must be >= 0");
+    for (const auto p : constraints.face_patch)
+        FM_CHECK(p >= 0 && std::size_t(p) < patches.size() && patches[std::size_t(p)] != nullptr);
+    SmoothingReport report;
+    report.min_angle_before_deg = global_min_angle(surface);
+    Smoother smoother(surface, patches, constraints, params);
+    for (int it = 0; it < params.iterations; ++it) {
+        const std::size_t moves = smoother.smooth_pass();
+        const std::size_t flips = params.flip_edges ? smoother.flip_pass() : 0;
+        report.moves += moves;
+        report.flips += flips;
+        ctx.progress(double(it + 1) / params.iterations, "smoothing");
+        if (moves == 0 && flips == 0) break;
+    }
+    report.min_angle_after_deg = global_min_angle(surface);
+    ctx.add("remesh.smoothing_moves", double(report.moves));
+    ctx.add("remesh.edge_flips", double(report.flips));
+    return report;
+}
+
+}  // namespace frontmesh::surface

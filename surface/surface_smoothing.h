@@ -1,0 +1,62 @@
+#pragma once
+// Angle-based smoothing (T. Zhou and K. Shimada, IMR 2000) and edge flips of a remeshed
+// surface network, with every vertex kept on the background surface (paper §2: "an
+// angle-based smoothing method is applied to the resulting mesh to ensure quality").
+
+#include <cstdint>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "pipeline/core/stage_context.h"
+#include "pipeline/core/surface_network.h"
+#include "surface/front_triangulate.h"
+
+namespace frontmesh::surface {
+
+/// A discretised feature curve of the output: output vertices along a background polyline.
+struct SurfaceCurve {
+    std::vector<Eigen::Vector3d> polyline;  ///< background polyline (closed: last == first)
+    std::vector<std::int32_t> vertices;     ///< output vertices along it (closed: last == first)
+    std::vector<double> s;                  ///< arc length (mm) of each vertex on the polyline
+    bool is_closed = false;  ///< no corner: its first vertex slides too (arc length wraps)
+};
+
+/// What each output vertex may do. Vertices on no curve are free: they move on the patch of
+/// their faces. Interior curve vertices slide along their curve; curve ends (corners) stay.
+struct SurfaceConstraints {
+    std::vector<std::int32_t> face_patch;  ///< per output face: index into the patch list
+    std::vector<std::int32_t> vertex_face; ///< per output vertex: background face hint, or -1
+    std::vector<SurfaceCurve> curves;
+};
+
+struct SmoothingParams {
+    int iterations = 5;                  ///< smoothing + flip passes
+    bool flip_edges = true;              ///< edge flips inside patches
+    double flip_max_dihedral_deg = 10.0; ///< only flip edges whose two faces are this flat
+    /// A move is refused when a face's normal turns by more than this (degrees): no folds.
+    double max_normal_turn_deg = 30.0;
+};
+
+struct SmoothingReport {
+    std::size_t moves = 0;  ///< accepted vertex moves, all passes
+    std::size_t flips = 0;  ///< accepted edge flips, all passes
+    double min_angle_before_deg = 0.0;
+    double min_angle_after_deg = 0.0;
+};
+
+/// Improves `surface` in place: per pass, each vertex in id order moves to the angle-based
+/// position (the mean of its ring neighbours' edges rotated onto the bisectors of their ring
+/// angles), projected back onto its patch (`patches[face_patch]`, local descent from its
+/// background face hint); curve vertices move to the arc-length midpoint of their curve
+/// neighbours; a move is kept only if the smallest angle of the faces around the vertex does
+/// not drop and no face turns by more than `max_normal_turn_deg`. Then edges inside a patch
+/// are flipped where both faces are flat within `flip_max_dihedral_deg` and the smaller
+/// minimum angle of the pair grows. Topology of curves and patches is kept; deterministic.
+/// `constraints.vertex_face` is updated. Preconditions: sizes match the surface.
+SmoothingReport smooth_surface(core::SurfaceNetwork& surface,
+                               const std::vector<const BackgroundPatch*>& patches,
+                               SurfaceConstraints& constraints, const SmoothingParams& params,
+                               core::StageContext& ctx);
+
+}  // namespace frontmesh::surface

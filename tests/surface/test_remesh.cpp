@@ -1,0 +1,229 @@
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <set>
+#include <tuple>
+
+#include <catch2/catch.hpp>
+#include <tbb/global_control.h>
+
+#include "pipeline/core/error.h"
+#include "pipeline/core/label_image.h"
+#include "pipeline/core/self_intersection.h"
+#include "surface/extract.h"
+#include "surface/features.h"
+#include "surface/front_triangulate.h"
+#include "surface/remesh.h"
+#include "surface/repair.h"
+#include "tests/fixtures/phantoms.h"
+
+using namespace frontmesh;
+
+namespace {
+
+core::SurfaceNetwork background_of(const core::LabelImage& image, surface::ExtractMethod method,
+                                   double blur = 0.0) {
+    core::StageContext ctx;
+    surface::ExtractParams params;
+    params.method = method;
+    params.blur_sigma_mm = blur;
+    return surface::repair(surface::extract(image, params, ctx), {}, ctx);
+}
+
+core::LabelImage split_ball_image(int n, double r) {
+    core::LabelImage image;
+    image.dims = {n, n, n};
+    image.labels.assign(image.voxel_count(), 0);
+    const double c = 0.5 * (n - 1);
+    for (int k = 0; k < n; ++k)
+        for (int j = 0; j < n; ++j)
+            for (int i = 0; i < n; ++i) {
+                const double x = i - c, y = j - c, z = k - c;
+                if (x * x + y * y + z * z <= r * r) image.labels[image.index(i, j, k)] = z < 0.0 ? 1 : 2;
+            }
+    return image;
+}
+
+// The acceptance checks of issue 3 that hold for any input.
+void check_remeshed(const core::SurfaceNetwork& bg, const surface::RemeshResult& r,
+                    double volume_tolerance) {
+    const auto& s = r.surface;
+    REQUIRE(s.face_count() > 0);
+    CHECK(r.target_size.size() == s.vertex_count());
+    CHECK(core::region_labels(s) == core::region_labels(bg));
+    for (const auto& c : core::check_region_boundaries(s)) {
+        INFO("region " << c.region);
+        CHECK(c.is_closed());
+        CHECK(c.is_oriented());
+        CHECK(c.nonmanifold_edges == 0);
+        CHECK(c.volume == Approx(core::enclosed_volume(bg, c.region)).epsilon(volume_tolerance));
+    }
+    CHECK(core::self_intersections(s, 1).empty());
+    // Every vertex on the background.
+    std::vector<std::int32_t> all(bg.face_count());
+    for (std::size_t f = 0; f < all.size(); ++f) all[f] = std::int32_t(f);
+    const surface::BackgroundPatch whole(bg, all, false);
+    double worst = 0.0;
+    for (std::size_t v = 0; v < s.vertex_count(); ++v)
+        worst = std::max(worst, whole.project(s.point(std::int32_t(v))).distance);
+    CHECK(worst < 1e-9);
+}
+
+// Closed box [0, a]^3 (mm), each side a grid of n x n squares cut into two triangles, outward.
+core::SurfaceNetwork grid_cube(double a, int n) {
+    core::SurfaceNetwork s;
+    std::map<std::tuple<long, long, long>, std::int32_t> ids;
+    auto vertex = [&](const Eigen::Vector3d& p) {
+        const auto key = std::make_tuple(std::lround(p.x() * 1e6), std::lround(p.y() * 1e6),
+                                         std::lround(p.z() * 1e6));
+        const auto it = ids.find(key);
+        if (it != ids.end()) return it->second;
+        return ids[key] = s.add_vertex(p);
+    };
+    for (int axis = 0; axis < 3; ++axis) {
+        const int u = (axis + 1) % 3, v = (axis + 2) % 3;
+        for (int side = 0; side < 2; ++side)
+            for (int i = 0; i < n; ++i)
+                for (int j = 0; j < n; ++j) {
+                    std::int32_t q[4];
+                    const int di[4] = {0, 1, 1, 0}, dj[4] = {0, 0, 1, 1};
+                    for (int k = 0; k < 4; ++k) {
+                        Eigen::Vector3d p;
+                        p[axis] = side * a;
+                        p[u] = a * (i + di[k]) / n;
+                        p[v] = a * (j + dj[k]) / n;
+                        q[k] = vertex(p);
+                    }
+                    if (side == 1) {
+                        s.add_face(q[0], q[1], q[2], 1, 0);
+                        s.add_face(q[0], q[2], q[3], 1, 0);
+                    } else {
+                        s.add_face(q[0], q[2], q[1], 1, 0);
+                        s.add_face(q[0], q[3], q[2], 1, 0);
+                    }
+                }
+    }
+    return s;
+}
+
+}  // namespace
+
+TEST_CASE("remesh a cube with sharp edges: corners and edges kept", "[remesh]") {
+    const auto bg = grid_cube(10.0, 10);
+    surface::RemeshParams params;
+    params.edge_length = 1.5;
+    params.feature_angle_deg = 30.0;
+    core::StageContext ctx;
+    const auto r = surface::remesh(bg, params, ctx);
+    check_remeshed(bg, r, 1e-9);  // flat sides: the volume is exact
+    CHECK(ctx.counters().at("remesh.corners") == 8);
+    CHECK(ctx.counters().at("remesh.patches") == 6);
+    // The eight corners are output vertices; every vertex lies on the cube's sides.
+    int corners = 0;
+    for (std::size_t v = 0; v < r.surface.vertex_count(); ++v) {
+        const auto p = r.surface.point(std::int32_t(v));
+        int on_planes = 0;
+        for (int k = 0; k < 3; ++k)
+            if (std::abs(p[k]) < 1e-12 || std::abs(p[k] - 10.0) < 1e-12) ++on_planes;
+        CHECK(on_planes >= 1);
+        if (on_planes == 3) ++corners;
+    }
+    CHECK(corners == 8);
+    const auto q = surface::surface_quality(r.surface);
+    INFO("min angle " << q.min_angle_deg << ", mean eta " << q.mean_eta);
+    CHECK(q.min_angle_deg >= 20.0);
+}
+
+TEST_CASE("remesh a marching-cubes ball: uniform, quality, on the background", "[remesh]") {
+    const auto bg = background_of(fixtures::sphere_image(48, 18.0, 1.0, 1),
+                                  surface::ExtractMethod::FlyingEdges, 1.0);
+    surface::RemeshParams params;
+    params.edge_length = 2.0;
+    core::StageContext ctx;
+    const auto r = surface::remesh(bg, params, ctx);
+    check_remeshed(bg, r, 0.01);
+    const auto q = surface::surface_quality(r.surface);
+    const double in_band = surface::edge_length_fraction(r.surface, 0.7 * 2.0, 1.4 * 2.0);
+    INFO("faces " << q.faces << ", min angle " << q.min_angle_deg << ", >=30: "
+                  << q.fraction_at_least_30_deg << ", mean eta " << q.mean_eta << ", band "
+                  << in_band);
+    CHECK(q.min_angle_deg >= 20.0);
+    CHECK(q.fraction_at_least_30_deg >= 0.99);
+    CHECK(q.mean_eta <= 0.05);
+    CHECK(in_band >= 0.95);
+    for (const double h : r.target_size) CHECK(h == Approx(2.0));
+    const auto hd = surface::hausdorff_distance(r.surface, bg);
+    CHECK(hd.max() < 0.3);  // chords of a 2 mm mesh on an R = 18 mm ball
+    CHECK(ctx.counters().count("remesh.faces") == 1);
+}
+
+TEST_CASE("remesh the nested three-region phantom: shared interfaces", "[remesh]") {
+    const auto bg = background_of(fixtures::nested_ellipsoids_image(1.0, 0.8),
+                                  surface::ExtractMethod::SurfaceNets);
+    surface::RemeshParams params;
+    params.edge_length = 2.0;
+    core::StageContext ctx;
+    const auto r = surface::remesh(bg, params, ctx);
+    check_remeshed(bg, r, 0.01);
+    const auto q = surface::surface_quality(r.surface);
+    INFO("faces " << q.faces << ", min angle " << q.min_angle_deg << ", >=30: "
+                  << q.fraction_at_least_30_deg << ", mean eta " << q.mean_eta);
+    CHECK(q.min_angle_deg >= 20.0);
+    CHECK(q.fraction_at_least_30_deg >= 0.99);
+    CHECK(q.mean_eta <= 0.05);
+    // Interfaces stored once: the output has the background's three region pairs, each once.
+    std::set<std::pair<core::Label, core::Label>> pairs_bg, pairs_out;
+    for (std::size_t f = 0; f < bg.face_count(); ++f) pairs_bg.insert({bg.region_in[f], bg.region_out[f]});
+    for (std::size_t f = 0; f < r.surface.face_count(); ++f)
+        pairs_out.insert({r.surface.region_in[f], r.surface.region_out[f]});
+    CHECK(pairs_out == pairs_bg);
+}
+
+TEST_CASE("remesh a split ball: the junction circle is kept and shared", "[remesh]") {
+    const auto bg = background_of(split_ball_image(44, 16.0), surface::ExtractMethod::SurfaceNets);
+    surface::RemeshParams params;
+    params.edge_length = 2.0;
+    core::StageContext ctx;
+    const auto r = surface::remesh(bg, params, ctx);
+    check_remeshed(bg, r, 0.01);
+    const auto q = surface::surface_quality(r.surface);
+    INFO("faces " << q.faces << ", min angle " << q.min_angle_deg << ", mean eta " << q.mean_eta);
+    CHECK(q.min_angle_deg >= 20.0);
+    // The output's junction: one closed curve, its vertices on the background's junction.
+    const auto fb = surface::find_features(bg, 0.0, ctx);
+    const auto fo = surface::find_features(r.surface, 0.0, ctx);
+    REQUIRE(fo.curves.size() == 1);
+    CHECK(fo.patches.size() == 3);
+    std::vector<Eigen::Vector3d> junction;
+    for (const auto v : fb.curves[0].vertices) junction.push_back(bg.point(v));
+    for (const auto v : fo.curves[0].vertices) {
+        double best = 1e300;
+        const Eigen::Vector3d p = r.surface.point(v);
+        for (std::size_t i = 0; i + 1 < junction.size(); ++i) {
+            const Eigen::Vector3d d = junction[i + 1] - junction[i];
+            const double t = std::clamp((p - junction[i]).dot(d) / d.squaredNorm(), 0.0, 1.0);
+            best = std::min(best, (junction[i] + t * d - p).norm());
+        }
+        CHECK(best < 1e-9);
+    }
+}
+
+TEST_CASE("remesh is deterministic and validates its parameters", "[remesh]") {
+    const auto bg = background_of(split_ball_image(30, 10.0), surface::ExtractMethod::SurfaceNets);
+    surface::RemeshParams params;
+    params.edge_length = 2.0;
+    core::StageContext c1, c2;
+    const auto a = surface::remesh(bg, params, c1);
+    const auto b = [&] {
+        const tbb::global_control one_thread(tbb::global_control::max_allowed_parallelism, 1);
+        return surface::remesh(bg, params, c2);
+    }();
+    CHECK(a.surface.xyz == b.surface.xyz);
+    CHECK(a.surface.faces == b.surface.faces);
+    CHECK(a.target_size == b.target_size);
+    params.gradation = 0.9;
+    CHECK_THROWS_WITH(surface::remesh(bg, params, c1), Catch::Contains("remesh.gradation"));
+    params.gradation = 1.3;
+    params.feature_angle_deg = 200;
+    CHECK_THROWS_AS(surface::remesh(bg, params, c1), core::InputError);
+}

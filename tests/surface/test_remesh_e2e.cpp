@@ -1,0 +1,122 @@
+// End-to-end remeshing of the real data of issue 3 (tag [e2e]): the Colin27 brain and the AAL
+// atlas, with the acceptance figures printed. Environment overrides for experiments:
+// FRONTMESH_REMESH_H (mm).
+
+#include <chrono>
+#include <cstdlib>
+#include <filesystem>
+#include <iostream>
+
+#include <catch2/catch.hpp>
+
+#include "io/image_reader.h"
+#include "pipeline/core/self_intersection.h"
+#include "surface/extract.h"
+#include "surface/front_triangulate.h"
+#include "surface/remesh.h"
+#include "surface/repair.h"
+
+using namespace frontmesh;
+
+namespace {
+
+double env_or(const char* name, double fallback) {
+    const char* v = std::getenv(name);
+    return v ? std::atof(v) : fallback;
+}
+
+void report_and_check(const std::string& what, const core::SurfaceNetwork& bg,
+                      const surface::RemeshResult& r, double seconds, double h,
+                      const core::StageContext& ctx) {
+    const auto& s = r.surface;
+    const auto q = surface::surface_quality(s);
+    const auto hd = surface::hausdorff_distance(s, bg);
+    std::cout << what << ": h " << h << " mm, " << s.vertex_count() << " vertices, " << q.faces
+              << " faces, remesh " << seconds << " s\n  min angle " << q.min_angle_deg
+              << " deg, below 20: " << 100 * q.fraction_below_20_deg << " %, >= 30: "
+              << 100 * q.fraction_at_least_30_deg << " %, mean eta " << q.mean_eta
+              << ", max eta " << q.max_eta << "\n  eta histogram (0.1 bins):";
+    for (const auto c : q.eta_histogram) std::cout << " " << c;
+    std::cout << "\n  edges in [0.7h, 1.4h]: "
+              << 100 * surface::edge_length_fraction(s, 0.7 * h, 1.4 * h)
+              << " %\n  Hausdorff out->bg " << hd.a_to_b << " mm (mean " << hd.mean_a_to_b
+              << "), bg->out " << hd.b_to_a << " mm (mean " << hd.mean_b_to_a << ")\n";
+    std::cout << " ";
+    for (const auto& [name, value] : ctx.counters())
+        if (name.find("time_") != std::string::npos || name.find("size_") != std::string::npos)
+            std::cout << " " << name << " " << value;
+    std::cout << "\n";
+    double worst_volume = 0.0;
+    for (const auto& c : core::check_region_boundaries(s)) {
+        INFO(what << " region " << c.region);
+        CHECK(c.is_closed());
+        CHECK(c.is_oriented());
+        CHECK(c.nonmanifold_edges == 0);
+        const double v0 = core::enclosed_volume(bg, c.region);
+        worst_volume = std::max(worst_volume, std::abs(c.volume - v0) / v0);
+    }
+    std::cout << "  worst region volume change " << 100 * worst_volume << " %\n";
+    CHECK(core::self_intersections(s, 1).empty());
+    CHECK(q.min_angle_deg >= 20.0);
+    CHECK(q.fraction_at_least_30_deg >= 0.99);
+    CHECK(q.mean_eta <= 0.05);
+    CHECK(worst_volume <= 0.005);
+    // Every vertex on the background.
+    std::vector<std::int32_t> all(bg.face_count());
+    for (std::size_t f = 0; f < all.size(); ++f) all[f] = std::int32_t(f);
+    const surface::BackgroundPatch whole(bg, all, false);
+    double worst = 0.0;
+    for (std::size_t v = 0; v < s.vertex_count(); ++v)
+        worst = std::max(worst, whole.project(s.point(std::int32_t(v))).distance);
+    std::cout << "  farthest vertex from the background " << worst << " mm\n";
+    CHECK(worst < 1e-9);
+}
+
+core::SurfaceNetwork background_from(const std::string& path, std::optional<double> threshold,
+                                     double blur, core::Frame frame) {
+    io::ImageReadOptions ro;
+    ro.threshold = threshold;
+    ro.frame = frame;
+    const auto image = io::read_label_image(path, ro);
+    core::StageContext ctx;
+    surface::ExtractParams ep;
+    ep.blur_sigma_mm = blur;
+    return surface::repair(surface::extract(image, ep, ctx), {}, ctx);
+}
+
+}  // namespace
+
+// Hidden ([.]): the acceptance runs of issue 3. They do not pass yet: the advancing-front
+// triangulator stops with a MeshingError in thin fins of the brain and in AAL patches that
+// touch themselves (see the session notes). Run them by name to measure progress.
+TEST_CASE("remesh the Colin27 brain at about 80k triangles", "[remesh][e2e][.]") {
+    const std::string path = "/usr/share/mricron/templates/ch2bet.nii.gz";
+    if (!std::filesystem::exists(path)) return;
+    // As examples/colin27-brain.yaml: threshold 30, 1 mm blur.
+    const auto bg = background_from(path, 30.0, 1.0, core::Frame::Lps);
+    surface::RemeshParams params;
+    params.edge_length = env_or("FRONTMESH_REMESH_H", 1.75);
+    core::StageContext ctx;
+    const auto t0 = std::chrono::steady_clock::now();
+    const auto r = surface::remesh(bg, params, ctx);
+    const double seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    report_and_check("Colin27", bg, r, seconds, params.edge_length, ctx);
+    CHECK(r.surface.face_count() > 60000);
+    CHECK(r.surface.face_count() < 100000);
+}
+
+TEST_CASE("remesh the AAL atlas: 116 regions, interfaces shared", "[remesh][e2e][.]") {
+    const std::string path = "/usr/share/mricron/templates/aal.nii.gz";
+    if (!std::filesystem::exists(path)) return;
+    const auto bg = background_from(path, std::nullopt, 0.0, core::Frame::Ras);
+    surface::RemeshParams params;
+    params.edge_length = env_or("FRONTMESH_REMESH_AAL_H", 0.0);
+    core::StageContext ctx;
+    const auto t0 = std::chrono::steady_clock::now();
+    const auto r = surface::remesh(bg, params, ctx);
+    const double seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    report_and_check("AAL", bg, r, seconds, ctx.counters().at("remesh.edge_length_mm"), ctx);
+    CHECK(core::region_labels(r.surface).size() == 116);
+}
