@@ -17,6 +17,7 @@
 #include <tbb/parallel_for.h>
 #include <vtkAlgorithm.h>
 #include <vtkCellArray.h>
+#include <vtkCharArray.h>
 #include <vtkCellArrayIterator.h>
 #include <vtkCellData.h>
 #include <vtkCellTypes.h>
@@ -102,6 +103,19 @@ private:
 // ---------------------------------------------------------------------------------------
 // Writing
 
+// Text entries of field data as char arrays (VTK type Int8), one per key, sorted by key so
+// the output is stable. Not vtkStringArray: meshio (and other readers of VTU) reject the
+// XML "String" type; copy_field_strings reads both back.
+void add_field_strings(vtkFieldData* field_data, const FieldStrings& fields) {
+    for (const auto& [key, value] : fields) {
+        vtkNew<vtkCharArray> entry;
+        entry->SetName(key.c_str());
+        entry->SetNumberOfTuples(static_cast<vtkIdType>(value.size()));
+        std::copy(value.begin(), value.end(), entry->GetPointer(0));
+        field_data->AddArray(entry);
+    }
+}
+
 // A VTK copy of `surface` with its cell and field arrays. Memory: about 57 B per face
 // (64-bit ids, offsets, type, regions, quality) + 24 B per vertex, ~70 MB per million faces.
 vtkSmartPointer<vtkUnstructuredGrid> surface_grid(const SurfaceNetwork& surface,
@@ -182,13 +196,7 @@ vtkSmartPointer<vtkUnstructuredGrid> surface_grid(const SurfaceNetwork& surface,
     cell_data->AddArray(eta);
     cell_data->AddArray(min_angle);
 
-    vtkFieldData* field_data = grid->GetFieldData();
-    for (const auto& [key, value] : fields) {  // std::map: sorted, so the output is stable
-        vtkNew<vtkStringArray> entry;
-        entry->SetName(key.c_str());
-        entry->InsertNextValue(value);
-        field_data->AddArray(entry);
-    }
+    add_field_strings(grid->GetFieldData(), fields);
     return grid;
 }
 
@@ -326,11 +334,16 @@ void copy_field_strings(vtkDataObject* data, FieldStrings* fields) {
     vtkFieldData* fd = data->GetFieldData();
     if (fd == nullptr) return;
     for (int i = 0; i < fd->GetNumberOfArrays(); ++i) {
-        auto* strings = vtkStringArray::SafeDownCast(fd->GetAbstractArray(i));
-        if (strings == nullptr || strings->GetName() == nullptr ||
-            strings->GetNumberOfValues() == 0)
-            continue;
-        (*fields)[strings->GetName()] = strings->GetValue(0);
+        vtkAbstractArray* array = fd->GetAbstractArray(i);
+        if (array == nullptr || array->GetName() == nullptr) continue;
+        if (auto* strings = vtkStringArray::SafeDownCast(array)) {
+            if (strings->GetNumberOfValues() > 0) (*fields)[array->GetName()] = strings->GetValue(0);
+        } else if ((array->GetDataType() == VTK_CHAR || array->GetDataType() == VTK_SIGNED_CHAR) &&
+                   array->GetNumberOfComponents() == 1) {
+            // Written as vtkCharArray, read back by VTK's XML reader as signed chars.
+            const char* text = static_cast<const char*>(array->GetVoidPointer(0));
+            (*fields)[array->GetName()] = std::string(text, text + array->GetNumberOfTuples());
+        }
     }
 }
 
@@ -580,8 +593,16 @@ std::string xml_attribute(const std::string& s) {
 }  // namespace
 
 void write_surface_vtu(const core::SurfaceNetwork& surface, const std::string& path,
-                       const FieldStrings& fields) {
+                       const FieldStrings& fields, const PointArrays& point_arrays) {
     const vtkSmartPointer<vtkUnstructuredGrid> grid = surface_grid(surface, fields);
+    for (const auto& [name, values] : point_arrays) {
+        FM_CHECK(values.size() == surface.vertex_count());
+        vtkNew<vtkDoubleArray> array;
+        array->SetName(name.c_str());
+        array->SetNumberOfTuples(static_cast<vtkIdType>(values.size()));
+        std::copy(values.begin(), values.end(), array->GetPointer(0));
+        grid->GetPointData()->AddArray(array);
+    }
     write_atomically(path, [&](const std::string& temp) { write_grid(grid, path, temp); });
 }
 
@@ -728,12 +749,7 @@ vtkSmartPointer<vtkUnstructuredGrid> tet_grid(const core::TetMesh& mesh,
     add_field_values<vtkIntArray>(fd, "boundary_region_in", 1, mesh.region_in.data(), nf);
     add_field_values<vtkIntArray>(fd, "boundary_region_out", 1, mesh.region_out.data(), nf);
     add_field_values<vtkIntArray>(fd, "surface_vertices", 1, &mesh.surface_vertices, 1);
-    for (const auto& [key, value] : fields) {
-        vtkNew<vtkStringArray> entry;
-        entry->SetName(key.c_str());
-        entry->InsertNextValue(value);
-        fd->AddArray(entry);
-    }
+    add_field_strings(fd, fields);
     return grid;
 }
 

@@ -14,12 +14,16 @@ namespace frontmesh::io {
 /// Strings recorded in a checkpoint's field data (e.g. "frame" -> "lps", "stage" -> "repair").
 using FieldStrings = std::map<std::string, std::string>;
 
+/// Per-point float64 arrays by name (e.g. "target_size" of the remesh checkpoint).
+using PointArrays = std::map<std::string, std::vector<double>>;
+
 /// Writes `surface` as a VTK XML unstructured grid of triangles (binary, zlib-compressed),
 /// atomically. Cell arrays: `region_in`, `region_out` (int32), `eta` (Eq. 2) and
-/// `min_angle` (degrees) (float64). Field data: one string array per entry of `fields`.
+/// `min_angle` (degrees) (float64). Field data: one string array per entry of `fields`;
+/// point data: one array per entry of `point_arrays` (each of vertex_count() values).
 /// Throws IoError naming `path` on failure.
 void write_surface_vtu(const core::SurfaceNetwork& surface, const std::string& path,
-                       const FieldStrings& fields);
+                       const FieldStrings& fields, const PointArrays& point_arrays = {});
 
 /// Reads a triangle surface from .vtu, .vtp, .stl, .off or .ply. Cell arrays `region_in`
 /// and `region_out` are used when present; otherwise every face gets region_in = 1,

@@ -287,14 +287,30 @@ void read_subject_summary(SubjectResult& r) {
         }
     r.status = any_stage && !any_ran ? SubjectStatus::Skipped : SubjectStatus::Ok;
     if (const JsonValue* quality = last ? last->member("quality") : nullptr) {
-        auto count = [&](const char* key) -> std::optional<long long> {
-            const JsonValue* v = quality->member(key);
+        auto number = [](const JsonValue* object, const char* key) -> std::optional<double> {
+            const JsonValue* v = object ? object->member(key) : nullptr;
             if (!v || v->kind != JsonValue::Kind::Number) return std::nullopt;
-            return static_cast<long long>(v->number);
+            return v->number;
         };
-        r.faces = count("faces");
-        r.regions = count("regions");
-        r.regions_closed = count("regions_closed");
+        auto count = [&](const JsonValue* object, const char* key) -> std::optional<long long> {
+            const auto v = number(object, key);
+            return v ? std::optional<long long>(static_cast<long long>(*v)) : std::nullopt;
+        };
+        r.faces = count(quality, "faces");
+        r.regions = count(quality, "regions");
+        r.regions_closed = count(quality, "regions_closed");
+        // A tetrahedral result (tet_report): boundary faces, regions as a list, tet quality.
+        if (const auto tets = count(quality, "tets")) {
+            r.tets = tets;
+            r.nodes = count(quality, "nodes");
+            r.faces = count(quality, "boundary_faces");
+            if (const JsonValue* regions = quality->member("regions");
+                regions && regions->kind == JsonValue::Kind::Array)
+                r.regions = static_cast<long long>(regions->items.size());
+            const JsonValue* tet_quality = quality->member("quality");
+            r.skewness_over_08 = number(tet_quality, "fraction_skewness_over_0.8");
+            r.min_dihedral_deg = number(tet_quality, "min_dihedral_deg");
+        }
     }
 }
 
@@ -352,12 +368,15 @@ std::string optional_json(const std::optional<T>& value) {
 
 void write_summaries(const CohortResult& result, const Manifest& manifest, const std::string& recipe, int jobs) {
     std::ostringstream csv;
-    csv << "id,status,exit_code,wall_s,total_wall_s,faces,regions,regions_closed,error\n";
+    csv << "id,status,exit_code,wall_s,total_wall_s,faces,regions,regions_closed,nodes,tets,"
+           "fraction_skewness_over_0.8,min_dihedral_deg,error\n";
     for (const auto& r : result.subjects)
         csv << csv_field(r.id) << ',' << subject_status_name(r.status) << ',' << r.exit_code << ','
             << optional_text(std::optional<double>(r.wall_s)) << ',' << optional_text(r.total_wall_s) << ','
             << optional_text(r.faces) << ',' << optional_text(r.regions) << ',' << optional_text(r.regions_closed)
-            << ',' << csv_field(r.error) << '\n';
+            << ',' << optional_text(r.nodes) << ',' << optional_text(r.tets) << ','
+            << optional_text(r.skewness_over_08) << ',' << optional_text(r.min_dihedral_deg) << ','
+            << csv_field(r.error) << '\n';
     io::write_text_atomically((fs::path(result.root) / kSummaryCsv).string(), csv.str());
 
     std::ostringstream json;
@@ -372,7 +391,10 @@ void write_summaries(const CohortResult& result, const Manifest& manifest, const
              << json_quote(subject_status_name(r.status)) << ", \"exit_code\": " << r.exit_code
              << ", \"wall_s\": " << json_number(r.wall_s) << ", \"total_wall_s\": " << optional_json(r.total_wall_s)
              << ", \"faces\": " << optional_json(r.faces) << ", \"regions\": " << optional_json(r.regions)
-             << ", \"regions_closed\": " << optional_json(r.regions_closed) << ",\n     \"image\": "
+             << ", \"regions_closed\": " << optional_json(r.regions_closed) << ", \"nodes\": " << optional_json(r.nodes)
+             << ", \"tets\": " << optional_json(r.tets) << ", \"fraction_skewness_over_0.8\": "
+             << optional_json(r.skewness_over_08) << ", \"min_dihedral_deg\": " << optional_json(r.min_dihedral_deg)
+             << ",\n     \"image\": "
              << json_quote(manifest.subjects[i].image) << ", \"dir\": " << json_quote(r.dir) << ", \"log\": "
              << json_quote((fs::path(r.dir) / kRunLog).string())
              << ", \"error\": " << (r.error.empty() ? std::string("null") : json_quote(r.error)) << "}";
@@ -614,6 +636,10 @@ CohortResult run_cohort(const std::string& manifest_path, const CohortOptions& o
         }
         args.push_back("--quiet");
         if (options.force) args.push_back("--force");
+        if (!options.until.empty()) {
+            args.push_back("--until");
+            args.push_back(options.until);
+        }
         if (options.threads > 0) {
             args.push_back("--threads");
             args.push_back(std::to_string(options.threads));

@@ -47,6 +47,7 @@ struct CohortOptions {
     std::vector<std::string> overrides;  ///< "key.path=value" for every subject (before the manifest's cells)
     int jobs = 1;                        ///< subjects running at the same time, >= 1
     bool force = false;                  ///< pass --force to every subject's run
+    std::string until;                   ///< pass --until STAGE to every subject's run; empty = do not
     int threads = 0;                     ///< pass --threads N to every subject's run; 0 = do not
     /// The frontmesh executable run for each subject. The default names the running
     /// program itself, so the command line needs no path.
@@ -70,6 +71,9 @@ struct SubjectResult {
     std::optional<double> total_wall_s;          ///< from the subject's summary.json
     std::optional<long long> faces;              ///< of the last stage's result
     std::optional<long long> regions, regions_closed;  ///< of the last stage's result
+    std::optional<long long> nodes, tets;        ///< a tetrahedral result
+    std::optional<double> skewness_over_08;      ///< fraction of tets with skewness > 0.8
+    std::optional<double> min_dihedral_deg;      ///< smallest dihedral angle of the tets
     std::string error;     ///< failed: the child's last "frontmesh: error:" line, without that prefix
 };
 

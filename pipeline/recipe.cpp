@@ -7,6 +7,7 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include "io/export.h"
 #include "pipeline/core/error.h"
 
 namespace frontmesh::pipeline {
@@ -101,6 +102,36 @@ struct KeySpec {
     std::function<void(const YAML::Node&, Recipe&, const Where&)> apply;
 };
 
+// Keys that set one field of a stage's parameters, with their range.
+template <typename Section>
+KeySpec number_key(std::string path, std::string default_yaml, Section Recipe::*section, double Section::*field,
+                   double lo, double hi, bool open_below = false) {
+    return {std::move(path), std::move(default_yaml),
+            [=](const YAML::Node& n, Recipe& r, const Where& w) {
+                const double v = as_number(n, w, lo, hi);
+                if (open_below && v == lo) {
+                    std::ostringstream s;
+                    s << "must be greater than " << lo << ", got " << n.Scalar();
+                    w.fail(s.str());
+                }
+                r.*section.*field = v;
+            }};
+}
+
+template <typename Section>
+KeySpec integer_key(std::string path, std::string default_yaml, Section Recipe::*section, int Section::*field,
+                    int lo, int hi) {
+    return {std::move(path), std::move(default_yaml), [=](const YAML::Node& n, Recipe& r, const Where& w) {
+                r.*section.*field = static_cast<int>(as_integer(n, w, lo, hi));
+            }};
+}
+
+template <typename Section>
+KeySpec bool_key(std::string path, std::string default_yaml, Section Recipe::*section, bool Section::*field) {
+    return {std::move(path), std::move(default_yaml),
+            [=](const YAML::Node& n, Recipe& r, const Where& w) { r.*section.*field = as_bool(n, w); }};
+}
+
 const std::vector<KeySpec>& key_specs() {
     static const std::vector<KeySpec> specs = {
         {"input.image", "null",
@@ -130,6 +161,10 @@ const std::vector<KeySpec>& key_specs() {
              for (int i = 0; i < 3; ++i) s[i] = as_number(n[i], w, 1e-6, 1e6);
              r.input.spacing = s;
          }},
+        {"input.label_names", "null",
+         [](const YAML::Node& n, Recipe& r, const Where& w) {
+             r.input.label_names = resolve_input_path(as_string(n, w), r.path);
+         }},
         {"output.dir", "frontmesh-out",
          [](const YAML::Node& n, Recipe& r, const Where& w) {
              r.output.dir = fs::absolute(fs::path(as_string(n, w))).lexically_normal().string();
@@ -138,6 +173,20 @@ const std::vector<KeySpec>& key_specs() {
          [](const YAML::Node& n, Recipe& r, const Where& w) {
              r.output.frame = as_choice(n, w, {"lps", "ras"}) == "ras" ? core::Frame::Ras : core::Frame::Lps;
          }},
+        {"output.formats", "[vtu]",
+         [](const YAML::Node& n, Recipe& r, const Where& w) {
+             if (!n.IsSequence() || n.size() == 0)
+                 w.fail("expected a list of formats such as [vtu, msh, inp], got " + describe(n));
+             r.output.formats.clear();
+             for (std::size_t i = 0; i < n.size(); ++i) {
+                 const std::string f = as_choice(n[i], w, io::format_names());
+                 if (std::find(r.output.formats.begin(), r.output.formats.end(), f) != r.output.formats.end())
+                     w.fail("format " + f + " is listed twice");
+                 r.output.formats.push_back(f);
+             }
+         }},
+        {"output.quality_report", "true",
+         [](const YAML::Node& n, Recipe& r, const Where& w) { r.output.quality_report = as_bool(n, w); }},
         {"extract.method", "auto",
          [](const YAML::Node& n, Recipe& r, const Where& w) {
              const std::string m = as_choice(n, w, {"auto", "flying_edges", "surface_nets"});
@@ -177,13 +226,35 @@ const std::vector<KeySpec>& key_specs() {
          [](const YAML::Node& n, Recipe& r, const Where& w) { r.repair.check_self_intersections = as_bool(n, w); }},
         {"repair.fail_on_self_intersections", "true",
          [](const YAML::Node& n, Recipe& r, const Where& w) { r.repair.fail_on_self_intersections = as_bool(n, w); }},
+        number_key("tetra.stretching", "1.15", &Recipe::tetra, &volume::TetraParams::stretching, 1.0, 2.0, true),
+        integer_key("tetra.height_smoothing_iterations", "3", &Recipe::tetra,
+                    &volume::TetraParams::height_smoothing_iterations, 0, 100),
+        integer_key("tetra.max_remesh_per_node", "3", &Recipe::tetra, &volume::TetraParams::max_remesh_per_node, 0, 50),
+        number_key("tetra.min_angle_deg", "5.0", &Recipe::tetra, &volume::TetraParams::min_angle_deg, 0.0, 30.0),
+        integer_key("tetra.max_closing_rounds", "8", &Recipe::tetra, &volume::TetraParams::max_closing_rounds, 0, 100),
+        bool_key("refine.node_removal", "true", &Recipe::refine, &volume::RefineParams::node_removal),
+        integer_key("refine.node_removal_max_tets", "6", &Recipe::refine, &volume::RefineParams::node_removal_max_tets,
+                    4, 12),
+        integer_key("refine.passes", "3", &Recipe::refine, &volume::RefineParams::passes, 0, 20),
+        bool_key("refine.smoothing", "true", &Recipe::refine, &volume::RefineParams::smoothing),
+        integer_key("refine.smoothing_sweeps", "1", &Recipe::refine, &volume::RefineParams::smoothing_sweeps, 1, 10),
+        number_key("refine.smoothing_skewness", "0.0", &Recipe::refine, &volume::RefineParams::smoothing_skewness, 0.0,
+                   0.999),
+        number_key("refine.flip_skewness", "0.3", &Recipe::refine, &volume::RefineParams::flip_skewness, 0.0, 0.999),
+        integer_key("refine.flip_max_ring", "7", &Recipe::refine, &volume::RefineParams::flip_max_ring, 3, 10),
+        bool_key("refine.flip_delaunay_test", "true", &Recipe::refine, &volume::RefineParams::flip_delaunay_test),
+        integer_key("refine.flip_sweeps", "4", &Recipe::refine, &volume::RefineParams::flip_sweeps, 1, 20),
+        bool_key("refine.sliver_pass", "true", &Recipe::refine, &volume::RefineParams::sliver_pass),
+        number_key("refine.sliver_dihedral_deg", "15.0", &Recipe::refine, &volume::RefineParams::sliver_dihedral_deg,
+                   0.0, 70.5, true),
+        integer_key("refine.sliver_sweeps", "3", &Recipe::refine, &volume::RefineParams::sliver_sweeps, 1, 20),
     };
     return specs;
 }
 
 // Stages named by the method whose sections a recipe may not use yet.
 const std::vector<std::pair<std::string, std::string>> kPlannedSections = {
-    {"remesh", "3"}, {"tetra", "4"}, {"refine", "5"}};
+    {"remesh", "3"}};
 
 [[noreturn]] void unknown_key(const std::string& key, const std::string& origin) {
     std::string best;
@@ -268,7 +339,7 @@ Recipe load_recipe(const std::string& path, const std::vector<std::string>& over
             FM_THROW(InputError, "--set " + key + ": cannot read the value: " + e.msg);
         }
         // Relative paths given on the command line are relative to the current folder.
-        if ((key == "input.image" || key == "input.surface") && value.IsScalar())
+        if ((key == "input.image" || key == "input.surface" || key == "input.label_names") && value.IsScalar())
             value = YAML::Node(fs::absolute(value.Scalar()).lexically_normal().string());
         apply_key(key, value, recipe, "--set");
         seen.push_back(key);
@@ -291,12 +362,17 @@ Recipe load_recipe(const std::string& path, const std::vector<std::string>& over
         FM_THROW(InputError, origin_for("input.image") + ": input.image: '" + in.image + "' does not exist");
     if (!in.surface.empty() && !fs::exists(in.surface))
         FM_THROW(InputError, origin_for("input.surface") + ": input.surface: '" + in.surface + "' does not exist");
+    if (!in.label_names.empty() && !fs::exists(in.label_names))
+        FM_THROW(InputError, origin_for("input.label_names") + ": input.label_names: '" + in.label_names +
+                                 "' does not exist");
     if (in.threshold && !(in.labels.empty() || in.labels == std::vector<core::Label>{1}))
         FM_THROW(InputError, origin_for("input.labels") +
                                  ": input.labels: with input.threshold the mask has the single label 1; use [1] or all");
     recipe.extract.labels = in.labels;
     surface::validate(recipe.extract);
     surface::validate(recipe.repair);
+    volume::validate(recipe.tetra);
+    volume::validate(recipe.refine);
     return recipe;
 }
 
@@ -327,6 +403,19 @@ std::string canonical_params(const Recipe& recipe, const std::string& section) {
           << ";min_faces=" << p.min_component_faces << ";max_hole=" << p.max_hole_edges
           << ";fill=" << p.fill_holes << ";check_si=" << p.check_self_intersections
           << ";fail_si=" << p.fail_on_self_intersections;
+    } else if (section == "tetra") {
+        const auto& t = recipe.tetra;
+        s << "stretching=" << t.stretching << ";height_smoothing=" << t.height_smoothing_iterations
+          << ";max_remesh=" << t.max_remesh_per_node << ";min_angle=" << t.min_angle_deg
+          << ";closing=" << t.max_closing_rounds;
+    } else if (section == "refine") {
+        const auto& f = recipe.refine;
+        s << "node_removal=" << f.node_removal << ";max_tets=" << f.node_removal_max_tets << ";passes=" << f.passes
+          << ";smoothing=" << f.smoothing << ";sweeps=" << f.smoothing_sweeps
+          << ";smoothing_skewness=" << f.smoothing_skewness << ";flip_skewness=" << f.flip_skewness
+          << ";ring=" << f.flip_max_ring << ";delaunay=" << f.flip_delaunay_test << ";flip_sweeps=" << f.flip_sweeps
+          << ";sliver=" << f.sliver_pass << ";sliver_deg=" << f.sliver_dihedral_deg
+          << ";sliver_sweeps=" << f.sliver_sweeps;
     } else {
         FM_CHECK(false && "unknown recipe section");
     }

@@ -10,6 +10,8 @@
 #include "pipeline/core/label_image.h"
 #include "surface/extract.h"
 #include "surface/repair.h"
+#include "volume/refine.h"
+#include "volume/tetra.h"
 
 namespace frontmesh::pipeline {
 
@@ -19,11 +21,15 @@ struct InputSection {
     std::vector<core::Label> labels;   ///< empty = all
     std::optional<double> threshold;   ///< grayscale: value > threshold is label 1
     std::optional<Eigen::Vector3d> spacing;  ///< mm, slice stacks
+    std::string label_names;           ///< label table file (absolute), or empty: the table
+                                       ///< beside the image when there is one
 };
 
 struct OutputSection {
     std::string dir;                    ///< absolute
     core::Frame frame = core::Frame::Lps;
+    std::vector<std::string> formats{"vtu"};  ///< exports of a tet mesh: mesh.EXT
+    bool quality_report = true;               ///< report.html + SVG histograms after refine
 };
 
 struct Recipe {
@@ -32,6 +38,8 @@ struct Recipe {
     OutputSection output;
     surface::ExtractParams extract;
     surface::RepairParams repair;
+    volume::TetraParams tetra;
+    volume::RefineParams refine;
 };
 
 /// Reads and validates `path`, then applies `overrides` ("key.path=value", YAML values).

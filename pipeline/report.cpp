@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "pipeline/core/quality.h"
+#include "volume/mesh_check.h"
 
 namespace frontmesh::pipeline {
 namespace {
@@ -99,6 +100,54 @@ SurfaceReport surface_report(const core::SurfaceNetwork& surface) {
                   "min angle %.1f deg",
                   f.vertices, f.faces, f.regions, f.closed, f.oriented, f.eta_mean, f.eta_max, f.min_angle_min);
     return {s.str(), buf};
+}
+
+namespace {
+
+template <std::size_t N>
+std::string json_counts(const std::array<std::size_t, N>& counts) {
+    std::string s = "[";
+    for (std::size_t i = 0; i < N; ++i) s += (i ? ", " : "") + std::to_string(counts[i]);
+    return s + "]";
+}
+
+std::string quality_json(const volume::TetQuality& q) {
+    std::ostringstream s;
+    s << "{\"tets\": " << q.tets << ", \"skewness_mean\": " << json_number(q.mean_skewness)
+      << ", \"skewness_max\": " << json_number(q.max_skewness)
+      << ", \"skewness_over_0.8\": " << q.skewness_over_08 << ", \"fraction_skewness_over_0.8\": "
+      << json_number(q.tets ? double(q.skewness_over_08) / double(q.tets) : 0.0)
+      << ", \"min_dihedral_deg\": " << json_number(q.min_dihedral_deg)
+      << ", \"max_dihedral_deg\": " << json_number(q.max_dihedral_deg)
+      << ", \"skewness_histogram_0.1\": " << json_counts(q.skewness_histogram)
+      << ", \"min_dihedral_histogram_10deg\": " << json_counts(q.dihedral_histogram) << "}";
+    return s.str();
+}
+
+}  // namespace
+
+TetReport tet_report(const core::TetMesh& mesh) {
+    const volume::TetMeshCheck c = volume::check_tet_mesh(mesh);
+    std::ostringstream s;
+    s << "{\"nodes\": " << c.nodes << ", \"tets\": " << c.tets << ", \"boundary_faces\": "
+      << mesh.face_count() << ", \"valid\": " << (c.valid() ? "true" : "false")
+      << ", \"inverted_tets\": " << c.inverted_tets << ", \"nonconforming_faces\": "
+      << c.nonconforming_faces << ", \"open_faces\": " << c.open_faces << ", \"missing_faces\": "
+      << c.missing_faces << ", \"wrong_side_faces\": " << c.wrong_side_faces
+      << ", \"unused_nodes\": " << c.unused_nodes << ", \"volume_mm3\": " << json_number(c.volume)
+      << ", \"enclosed_volume_mm3\": " << json_number(c.enclosed_volume)
+      << ", \"quality\": " << quality_json(c.quality) << ", \"regions\": [";
+    bool first = true;
+    for (const auto& [label, q] : c.region_quality) {
+        const auto enclosed = c.region_enclosed_volume.find(label);
+        s << (first ? "" : ", ") << "{\"region\": " << label << ", \"volume_mm3\": "
+          << json_number(c.region_volume.at(label)) << ", \"enclosed_volume_mm3\": "
+          << json_number(enclosed != c.region_enclosed_volume.end() ? enclosed->second : 0.0)
+          << ", \"quality\": " << quality_json(q) << "}";
+        first = false;
+    }
+    s << "]}";
+    return {s.str(), c.summary(), c.valid()};
 }
 
 }  // namespace frontmesh::pipeline

@@ -4,6 +4,7 @@
 #include <string>
 
 #include "pipeline/core/surface_network.h"
+#include "pipeline/core/tet_mesh.h"
 
 namespace frontmesh::pipeline {
 
@@ -15,6 +16,16 @@ struct SurfaceReport {
     std::string line;
 };
 SurfaceReport surface_report(const core::SurfaceNetwork& surface);
+
+/// Figures of a tetrahedral mesh (volume::check_tet_mesh): `json` holds validity counts,
+/// volumes (tets vs enclosed by the boundary), skewness (Eq. 1) and dihedral figures with
+/// histograms, overall and per region; `valid` is the verdict; `line` one human line.
+struct TetReport {
+    std::string json;
+    std::string line;
+    bool valid = false;
+};
+TetReport tet_report(const core::TetMesh& mesh);
 
 /// JSON string literal of `text` (quoted, escaped).
 std::string json_quote(const std::string& text);

@@ -9,29 +9,44 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <optional>
 #include <sstream>
 #include <variant>
 
 #include "io/atomic_file.h"
+#include "io/export.h"
+#include "io/label_table.h"
 #include "io/image_reader.h"
 #include "io/mesh_io.h"
 #include "pipeline/core/error.h"
 #include "pipeline/version.h"
+#include "pipeline/quality_report.h"
 #include "pipeline/report.h"
+#include "volume/refine.h"
+#include "volume/tetra.h"
 
 namespace frontmesh::pipeline {
 namespace {
 
 namespace fs = std::filesystem;
-using StageData = std::variant<std::monostate, core::LabelImage, core::SurfaceNetwork>;
+using StageData = std::variant<std::monostate, core::LabelImage, core::SurfaceNetwork, core::TetMesh>;
+
+// What a stage reads and writes; decides how checkpoints are read, written and reported.
+enum class Kind { Image, Surface, Tets };
 
 struct StageDef {
     std::string name;
     int number;  // NN of checkpoints/NN-name.vtu, fixed by the method's order
+    Kind in, out;
 };
 
 const std::vector<StageDef>& stage_defs() {
-    static const std::vector<StageDef> defs = {{"extract", 1}, {"repair", 2}};
+    static const std::vector<StageDef> defs = {
+        {"extract", 1, Kind::Image, Kind::Surface},
+        {"repair", 2, Kind::Surface, Kind::Surface},
+        {"tetra", 4, Kind::Surface, Kind::Tets},
+        {"refine", 5, Kind::Tets, Kind::Tets},
+    };
     return defs;
 }
 
@@ -173,7 +188,8 @@ struct Outputs {
     }
 };
 
-core::SurfaceNetwork read_checkpoint_surface(const fs::path& path) {
+StageData read_checkpoint(const fs::path& path, Kind kind) {
+    if (kind == Kind::Tets) return io::read_tet_mesh(path.string());
     return io::read_surface(path.string());
 }
 
@@ -201,15 +217,25 @@ std::string run_recipe(const Recipe& recipe, const RunOptions& options) {
         FM_THROW(InputError, std::string(flag) + " " + name + ": unknown stage; stages: " + list);
     };
 
-    // A surface input enters at the stage after repair; until remesh exists, at repair.
+    // A surface input enters at repair, or at the stage --from names (e.g. --from tetra meshes
+    // the surface as it is); an image enters at extract.
     const bool surface_input = !recipe.input.surface.empty();
-    const int entry = surface_input ? index_of("repair", "input.surface") : 0;
     const int last = options.until.empty() ? static_cast<int>(stages.size()) - 1 : index_of(options.until, "--until");
     int first = options.from.empty() ? -1 : index_of(options.from, "--from");
-    if (first >= 0 && first < entry)
-        FM_THROW(InputError, "--from " + options.from + ": a run from input.surface starts at " + stages[entry].name +
-                                 " or later");
+    const int entry = !surface_input ? 0 : first >= 0 ? first : index_of("repair", "input.surface");
+    if (surface_input && stages[entry].in != Kind::Surface)
+        FM_THROW(InputError, "--from " + options.from + ": input.surface is a triangle surface; the " +
+                                 stages[entry].name + " stage needs a tetrahedral mesh");
     if (first > last) FM_THROW(InputError, "--from " + options.from + " comes after --until " + options.until);
+
+    // Region names for the exports: the recipe's table, else the one beside the image. Read
+    // before any work so a bad table fails fast.
+    io::LabelTable names;
+    {
+        std::string table = recipe.input.label_names;
+        if (table.empty() && !recipe.input.image.empty()) table = io::label_table_beside(recipe.input.image);
+        if (!table.empty()) names = io::read_label_table(table);
+    }
 
     const Outputs out{recipe.output.dir};
     const std::string frame = core::frame_name(recipe.output.frame);
@@ -259,7 +285,7 @@ std::string run_recipe(const Recipe& recipe, const RunOptions& options) {
             data = io::read_surface(recipe.input.surface);
         } else {
             info("reading checkpoint " + out.checkpoint(stages[first - 1]).string());
-            data = read_checkpoint_surface(out.checkpoint(stages[first - 1]));
+            data = read_checkpoint(out.checkpoint(stages[first - 1]), stages[first - 1].out);
         }
     }
 
@@ -317,11 +343,16 @@ std::string run_recipe(const Recipe& recipe, const RunOptions& options) {
         heading.append(std::to_string(i + 1)).append("/").append(std::to_string(last + 1)).append("] ");
         info(heading + stage.name);
         const auto t0 = std::chrono::steady_clock::now();
+        io::PointArrays point_arrays;  // extra per-point figures of the checkpoint
         try {
             if (stage.name == "extract") {
                 data = surface::extract(std::get<core::LabelImage>(data), recipe.extract, ctx);
             } else if (stage.name == "repair") {
                 data = surface::repair(std::get<core::SurfaceNetwork>(data), recipe.repair, ctx);
+            } else if (stage.name == "tetra") {
+                data = volume::tetra(std::get<core::SurfaceNetwork>(data), recipe.tetra, ctx);
+            } else if (stage.name == "refine") {
+                data = volume::refine(std::get<core::TetMesh>(data), recipe.refine, ctx);
             }
         } catch (const core::InputError&) {
             log.clear_progress();
@@ -336,11 +367,24 @@ std::string run_recipe(const Recipe& recipe, const RunOptions& options) {
         }
         log.clear_progress();
         const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-        const auto& surface = std::get<core::SurfaceNetwork>(data);
 
         prepare_folder();
-        io::write_surface_vtu(surface, out.checkpoint(stage).string(),
-                              {{"frame", frame}, {"stage", stage.name}, {"frontmesh_version", version()}});
+        const io::FieldStrings fields = {{"frame", frame}, {"stage", stage.name}, {"frontmesh_version", version()}};
+        std::string report_json, report_line;
+        if (stage.out == Kind::Tets) {
+            const auto& mesh = std::get<core::TetMesh>(data);
+            io::write_tet_mesh_vtu(mesh, out.checkpoint(stage).string(), fields);
+            const TetReport report = tet_report(mesh);
+            report_json = report.json;
+            report_line = report.line;
+            if (!report.valid) ctx.warn(stage.name + " produced an invalid mesh: " + report.line);
+        } else {
+            const auto& surface = std::get<core::SurfaceNetwork>(data);
+            io::write_surface_vtu(surface, out.checkpoint(stage).string(), fields, point_arrays);
+            const SurfaceReport report = surface_report(surface);
+            report_json = report.json;
+            report_line = report.line;
+        }
         std::ostringstream part;
         part << "{\"name\": " << json_quote(stage.name) << ", \"status\": \"ran\", \"wall_s\": " << json_number(wall)
              << ", \"peak_rss_mb\": " << json_number(peak_rss_mb()) << ", \"checkpoint\": "
@@ -354,24 +398,47 @@ std::string run_recipe(const Recipe& recipe, const RunOptions& options) {
         part << "},\n     \"warnings\": [";
         for (std::size_t w = 0; w < ctx.warnings().size(); ++w)
             part << (w ? ", " : "") << json_quote(ctx.warnings()[w]);
-        const SurfaceReport report = surface_report(surface);
-        part << "],\n     \"quality\": " << report.json << "}";
+        part << "],\n     \"quality\": " << report_json << "}";
         io::write_text_atomically(out.with_ext(stage, ".json").string(), part.str());
         io::write_text_atomically(out.with_ext(stage, ".hash").string(), hashes[i] + "\n");
         char buf[120];
         std::snprintf(buf, sizeof buf, "%s done in %.2f s, peak memory %.0f MB: ", stage.name.c_str(), wall,
                       peak_rss_mb());
-        info(buf + report.line);
+        info(buf + report_line);
     }
 
-    // The final result: the last surface (mesh.vtu once the volume stages exist), a copy of
-    // the last stage's checkpoint.
-    const fs::path result = out.dir / "surface.vtu";
+    // The final result: mesh.vtu for a tetrahedral mesh (a copy of the last checkpoint, or
+    // written again with the region names) plus the other formats asked for, and the
+    // quality report after refine; surface.vtu, a copy of the last checkpoint, for a surface.
     prepare_folder();
     const fs::path last_checkpoint = out.checkpoint(stages[last]);
-    io::write_atomically(result.string(), [&](const std::string& temp) {
-        fs::copy_file(last_checkpoint, temp, fs::copy_options::overwrite_existing);
-    });
+    const bool tet_result = stages[last].out == Kind::Tets;
+    const fs::path result = out.dir / (tet_result ? "mesh.vtu" : "surface.vtu");
+    if (!tet_result || names.empty())
+        io::write_atomically(result.string(), [&](const std::string& temp) {
+            fs::copy_file(last_checkpoint, temp, fs::copy_options::overwrite_existing);
+        });
+    if (tet_result) {
+        const core::TetMesh mesh = std::holds_alternative<core::TetMesh>(data)
+                                       ? std::get<core::TetMesh>(std::move(data))
+                                       : io::read_tet_mesh(last_checkpoint.string());
+        const io::FieldStrings fields = {{"frame", frame}, {"stage", stages[last].name}, {"frontmesh_version", version()}};
+        if (!names.empty()) io::write_mesh(mesh, result.string(), io::MeshFormat::Vtu, names, fields);
+        for (const std::string& name : recipe.output.formats) {
+            const io::MeshFormat format = io::format_from_name(name);
+            if (format == io::MeshFormat::Vtu) continue;
+            const fs::path file = out.dir / io::export_file_name(format);
+            io::write_mesh(mesh, file.string(), format, names, fields);
+            info("wrote " + file.string());
+        }
+        if (recipe.output.quality_report && stages[last].name == "refine") {
+            const fs::path tetra_checkpoint = out.checkpoint(stages[static_cast<std::size_t>(last) - 1]);
+            std::optional<core::TetMesh> before;
+            if (fs::exists(tetra_checkpoint)) before = io::read_tet_mesh(tetra_checkpoint.string());
+            write_quality_report(out.dir.string(), mesh, before ? &*before : nullptr, recipe.path);
+            info("wrote " + (out.dir / "report.html").string());
+        }
+    }
     write_pvd();
     write_summary("ok", "");
     return result.string();

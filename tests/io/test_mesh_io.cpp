@@ -14,6 +14,7 @@
 #include <catch2/catch.hpp>
 
 #include <vtkCellArray.h>
+#include <vtkCharArray.h>
 #include <vtkCellData.h>
 #include <vtkDoubleArray.h>
 #include <vtkFieldData.h>
@@ -21,6 +22,7 @@
 #include <vtkIntArray.h>
 #include <vtkNew.h>
 #include <vtkPLYWriter.h>
+#include <vtkPointData.h>
 #include <vtkPoints.h>
 #include <vtkPolyData.h>
 #include <vtkSTLWriter.h>
@@ -322,10 +324,11 @@ TEST_CASE("write_surface_vtu stores typed arrays and quality per cell", "[io]") 
         REQUIRE(min_angle->GetValue(c) <= 60.0 + 1e-9);
     }
 
-    auto* frame = vtkStringArray::SafeDownCast(grid->GetFieldData()->GetAbstractArray("frame"));
+    // Text as a char array (meshio rejects VTK's String type).
+    auto* frame = vtkDataArray::SafeDownCast(grid->GetFieldData()->GetAbstractArray("frame"));
     REQUIRE(frame != nullptr);
-    REQUIRE(frame->GetNumberOfValues() == 1);
-    CHECK(frame->GetValue(0) == "lps");
+    REQUIRE(frame->GetNumberOfTuples() == 3);
+    CHECK(std::string(static_cast<const char*>(frame->GetVoidPointer(0)), 3) == "lps");
 }
 
 TEST_CASE("write_surface_vtu output is byte-identical across writes", "[io]") {
@@ -618,6 +621,22 @@ TEST_CASE("write_pvd lists every entry with its index as timestep", "[io]") {
     CHECK(again->GetRootElement()
               ->FindNestedElementWithName("Collection")
               ->GetNumberOfNestedElements() == 1);
+}
+
+TEST_CASE("write_surface_vtu writes per-point arrays", "[io]") {
+    const std::string dir = fixtures::temp_dir("io_vtu_point_arrays");
+    const SurfaceNetwork sphere = fixtures::uv_sphere(2.0, 8);
+    std::vector<double> size(sphere.vertex_count());
+    for (std::size_t v = 0; v < size.size(); ++v) size[v] = 0.5 + 0.01 * double(v);
+    io::write_surface_vtu(sphere, dir + "/s.vtu", {}, {{"target_size", size}});
+    vtkNew<vtkXMLUnstructuredGridReader> reader;
+    reader->SetFileName((dir + "/s.vtu").c_str());
+    reader->Update();
+    vtkDataArray* a = reader->GetOutput()->GetPointData()->GetArray("target_size");
+    REQUIRE(a != nullptr);
+    REQUIRE(a->GetNumberOfTuples() == static_cast<vtkIdType>(size.size()));
+    for (std::size_t v = 0; v < size.size(); ++v) CHECK(a->GetTuple1(vtkIdType(v)) == size[v]);
+    CHECK_THROWS(io::write_surface_vtu(sphere, dir + "/bad.vtu", {}, {{"target_size", {1.0}}}));
 }
 
 TEST_CASE("write_tet_mesh_vtu round trip keeps tets, regions, boundary faces and levels", "[io]") {

@@ -111,7 +111,7 @@ TEST_CASE("cohort: a failed subject is recorded, the others finish; a re-run doe
     write_file(dir + "/manifest.csv", kManifest);
     const fs::path out = fs::path(dir) / "out";
 
-    const auto first = run_frontmesh("cohort manifest.csv --recipe recipe.yaml -j 2", dir);
+    const auto first = run_frontmesh("cohort manifest.csv --recipe recipe.yaml -j 2 --until repair", dir);
     INFO(first.out << first.err);
     CHECK(first.exit_code == 1);
     for (const char* id : {"sub-01", "sub-02"}) {
@@ -134,6 +134,7 @@ TEST_CASE("cohort: a failed subject is recorded, the others finish; a re-run doe
         CHECK(rows[i]["exit_code"] == "0");
         CHECK(std::stod(rows[i]["faces"]) > 100);
         CHECK(rows[i]["regions_closed"] == rows[i]["regions"]);
+        CHECK(rows[i]["tets"].empty());  // a surface result
         CHECK(std::stod(rows[i]["total_wall_s"]) > 0.0);
         CHECK(rows[i]["error"].empty());
     }
@@ -150,7 +151,7 @@ TEST_CASE("cohort: a failed subject is recorded, the others finish; a re-run doe
     SECTION("a re-run skips the finished subjects and still fails the missing one") {
         const auto times = checkpoint_times(out);
         REQUIRE(times.size() == 4);
-        const auto again = run_frontmesh("cohort manifest.csv --recipe recipe.yaml -j 2", dir);
+        const auto again = run_frontmesh("cohort manifest.csv --recipe recipe.yaml -j 2 --until repair", dir);
         INFO(again.err);
         CHECK(again.exit_code == 1);
         CHECK(checkpoint_times(out) == times);
@@ -165,7 +166,7 @@ TEST_CASE("cohort: a failed subject is recorded, the others finish; a re-run doe
     SECTION("a changed cell re-runs that subject only") {
         write_file(dir + "/manifest.csv", std::string(kManifest).replace(std::string(kManifest).find(",4\n"), 3, ",6\n"));
         const auto sub01 = checkpoint_times(out / "sub-01");
-        const auto again = run_frontmesh("cohort manifest.csv --recipe recipe.yaml --quiet", dir);
+        const auto again = run_frontmesh("cohort manifest.csv --recipe recipe.yaml --quiet --until repair", dir);
         CHECK(again.exit_code == 1);
         CHECK(again.err.empty());
         CHECK(checkpoint_times(out / "sub-01") == sub01);
@@ -175,7 +176,7 @@ TEST_CASE("cohort: a failed subject is recorded, the others finish; a re-run doe
     }
     SECTION("all subjects valid: exit 0, root moved with --set output.dir") {
         write_file(dir + "/valid.csv", "id,image\nsmall,small.mha\nlarge,large.mha\n");
-        const auto valid = run_frontmesh("cohort valid.csv --recipe recipe.yaml -j 2 --set output.dir=valid-out", dir);
+        const auto valid = run_frontmesh("cohort valid.csv --recipe recipe.yaml -j 2 --until repair --set output.dir=valid-out", dir);
         INFO(valid.err);
         CHECK(valid.exit_code == 0);
         rows = summary_rows(fs::path(dir) / "valid-out/cohort-summary.csv");
@@ -188,11 +189,35 @@ TEST_CASE("cohort: a failed subject is recorded, the others finish; a re-run doe
     }
 }
 
+TEST_CASE("cohort: a tetrahedral result fills the mesh columns", "[pipeline]") {
+    const std::string dir = cohort_dir("cohort_tets");
+    write_file(dir + "/manifest.csv", "id,image\nsmall,small.mha\n");
+    const auto r = run_frontmesh("cohort manifest.csv --recipe recipe.yaml --quiet", dir);
+    INFO(r.err);
+    REQUIRE(r.exit_code == 0);
+    CHECK(fs::exists(fs::path(dir) / "out/small/mesh.vtu"));
+    auto rows = summary_rows(fs::path(dir) / "out/cohort-summary.csv");
+    REQUIRE(rows.size() == 1);
+    CHECK(rows[0]["status"] == "ok");
+    CHECK(rows[0]["regions"] == "1");
+    CHECK(std::stod(rows[0]["faces"]) > 100);
+    CHECK(std::stod(rows[0]["tets"]) > std::stod(rows[0]["faces"]));
+    CHECK(std::stod(rows[0]["nodes"]) > 0);
+    CHECK(std::stod(rows[0]["min_dihedral_deg"]) > 0.0);
+    CHECK(std::stod(rows[0]["fraction_skewness_over_0.8"]) < 0.01);
+    CHECK_THAT(slurp(fs::path(dir) / "out/cohort-summary.json"), Catch::Contains("\"tets\": "));
+}
+
 TEST_CASE("cohort: -j 2 gives the rows of -j 1", "[pipeline]") {
     const std::string dir = cohort_dir("cohort_jobs");
     write_file(dir + "/manifest.csv", kManifest);
-    CHECK(run_frontmesh("cohort manifest.csv --recipe recipe.yaml --quiet -j 1 --set output.dir=one", dir).exit_code == 1);
-    CHECK(run_frontmesh("cohort manifest.csv --recipe recipe.yaml --quiet -j2 --set output.dir=two", dir).exit_code == 1);
+    // The surface stages are enough to compare the two schedules (--until reaches every subject).
+    CHECK(run_frontmesh("cohort manifest.csv --recipe recipe.yaml --quiet -j 1 --until repair --set output.dir=one", dir)
+              .exit_code == 1);
+    CHECK(run_frontmesh("cohort manifest.csv --recipe recipe.yaml --quiet -j2 --until repair --set output.dir=two", dir)
+              .exit_code == 1);
+    CHECK_FALSE(fs::exists(fs::path(dir) / "one/sub-01/checkpoints/04-tetra.vtu"));
+    CHECK(run_frontmesh("cohort manifest.csv --recipe recipe.yaml --quiet --until nowhere", dir).exit_code == 2);
     auto one = summary_rows(fs::path(dir) / "one/cohort-summary.csv");
     auto two = summary_rows(fs::path(dir) / "two/cohort-summary.csv");
     REQUIRE(one.size() == 3);
@@ -252,6 +277,7 @@ TEST_CASE("cohort: a crashing subject is recorded and cannot take the others dow
     options.recipe = dir + "/recipe.yaml";
     options.overrides = {"output.dir=" + dir + "/out"};
     options.jobs = 2;
+    options.until = "repair";
     options.executable = dir + "/fake-frontmesh.sh";
     options.on_progress = [&](const std::string& line) { progress.push_back(line); };
     const auto result = pipeline::run_cohort(dir + "/manifest.csv", options);
@@ -284,7 +310,7 @@ TEST_CASE("cohort Snakefile runs two subjects locally with snakemake -j 2", "[pi
     const std::string dir = cohort_dir("cohort_snakemake");
     write_file(dir + "/manifest.csv", "id,image,extract.smoothing_iterations\nsmall,small.mha,\nlarge,large.mha,4\n");
     write_file(dir + "/config.yaml", "manifest: " + dir + "/manifest.csv\nrecipe: " + dir + "/recipe.yaml\noutdir: " +
-                                         dir + "/smk-out\nfrontmesh: " + FRONTMESH_BINARY + "\nthreads: 1\n");
+                                         dir + "/smk-out\nfrontmesh: " + FRONTMESH_BINARY + "\nthreads: 1\nuntil: repair\n");
     const std::string command = "cd '" + dir + "' && snakemake -s '" + FRONTMESH_SOURCE_DIR +
                                 "/examples/cohort/Snakefile' -j 2 --configfile config.yaml > snakemake.txt 2>&1";
     const int status = std::system(command.c_str());
@@ -299,6 +325,7 @@ TEST_CASE("cohort Snakefile runs two subjects locally with snakemake -j 2", "[pi
     CHECK(rows[1].at("id") == "large");
     CHECK(rows[1].at("status") == "ok");
     CHECK(std::stod(rows[1].at("faces")) > std::stod(rows[0].at("faces")));
+    CHECK_FALSE(fs::exists(dir + "/smk-out/small/checkpoints/04-tetra.vtu"));  // until: repair
 
     SECTION("the SLURM profile submits each subject through sbatch with its resources") {
         // A stand-in sbatch: records its options, runs the job script at once, prints a job id.
@@ -308,7 +335,7 @@ TEST_CASE("cohort Snakefile runs two subjects locally with snakemake -j 2", "[pi
                    "sh \"$script\" > \"$(dirname \"$0\")/job-$$.out\" 2>&1\necho $$\n");
         fs::permissions(dir + "/fakebin/sbatch", fs::perms::owner_all);
         write_file(dir + "/slurm.yaml", "manifest: " + dir + "/manifest.csv\nrecipe: " + dir + "/recipe.yaml\noutdir: " +
-                                            dir + "/slurm-out\nfrontmesh: " + FRONTMESH_BINARY + "\nthreads: 1\n");
+                                            dir + "/slurm-out\nfrontmesh: " + FRONTMESH_BINARY + "\nthreads: 1\nuntil: repair\n");
         const std::string slurm = "cd '" + dir + "' && PATH='" + dir + "/fakebin':\"$PATH\" snakemake -s '" +
                                   FRONTMESH_SOURCE_DIR + "/examples/cohort/Snakefile' --profile '" +
                                   FRONTMESH_SOURCE_DIR +

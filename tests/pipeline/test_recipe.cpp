@@ -87,8 +87,18 @@ TEST_CASE("recipe errors: one line naming file, line and key", "[pipeline]") {
         CHECK_THAT(error_of("input:\n  image: [ball.mha\n"), Catch::Contains("YAML syntax error"));
     }
     SECTION("a stage that does not exist yet") {
-        CHECK_THAT(error_of("input:\n  image: ball.mha\ntetra:\n  stretching: 1.15\n"),
-                   Catch::Contains("tetra.stretching") && Catch::Contains("not available"));
+        CHECK_THAT(error_of("input:\n  image: ball.mha\nremesh:\n  edge_length: 2\n"),
+                   Catch::Contains("remesh.edge_length") && Catch::Contains("not available"));
+    }
+    SECTION("volume stage keys are range-checked with their place") {
+        CHECK_THAT(error_of("input:\n  image: ball.mha\ntetra:\n  stretching: 1.0\n"),
+                   Catch::Contains("r.yaml:4") && Catch::Contains("tetra.stretching") &&
+                       Catch::Contains("greater than 1"));
+        CHECK_THAT(error_of("input:\n  image: ball.mha\nrefine:\n  passes: many\n"),
+                   Catch::Contains("refine.passes") && Catch::Contains("whole number"));
+        CHECK_THAT(error_of("input:\n  image: ball.mha\nrefine:\n  flip_skewnes: 0.3\n"),
+                   Catch::Contains("did you mean 'refine.flip_skewness'"));
+        CHECK(error_of("input:\n  image: ball.mha\ntetra:\n  stretching: 1.05\nrefine:\n  passes: 2\n") == "");
     }
     SECTION("--set errors name the override") {
         CHECK_THAT(error_of("input:\n  image: ball.mha\n", {"extract.methd=auto"}),
@@ -108,7 +118,7 @@ TEST_CASE("configs/reference.yaml documents every key with its default, and is v
         const std::string leaf = key.substr(key.find('.') + 1);
         if (key == "input.image") continue;  // the reference names an example image
         // "  leaf: default" somewhere below its section.
-        const std::regex line("\\n  " + leaf + ": " + std::regex_replace(value, std::regex("[.]"), "\\.") + "\\s");
+        const std::regex line("\\n  " + leaf + ": " + std::regex_replace(value, std::regex("[.\\[\\]]"), "\\$&") + "\\s");
         CHECK(std::regex_search(text, line));
     }
     CHECK_NOTHROW(pipeline::load_recipe(path));

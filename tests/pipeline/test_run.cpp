@@ -34,7 +34,7 @@ std::string phantom_run_dir(const std::string& name) {
 
 TEST_CASE("run writes checkpoints, run.pvd, summary, log and result", "[pipeline]") {
     const std::string dir = phantom_run_dir("run_outputs");
-    const auto r = run_frontmesh("run recipe.yaml --quiet", dir);
+    const auto r = run_frontmesh("run recipe.yaml --quiet --until repair", dir);
     INFO(r.err);
     REQUIRE(r.exit_code == 0);
     const fs::path out = fs::path(dir) / "out";
@@ -65,7 +65,7 @@ TEST_CASE("run writes checkpoints, run.pvd, summary, log and result", "[pipeline
 
     SECTION("an unchanged re-run skips every stage") {
         const auto before = fs::last_write_time(out / "checkpoints/02-repair.vtu");
-        const auto again = run_frontmesh("run recipe.yaml", dir);
+        const auto again = run_frontmesh("run recipe.yaml --until repair", dir);
         REQUIRE(again.exit_code == 0);
         CHECK_THAT(again.err, Catch::Contains("up to date"));
         CHECK(fs::last_write_time(out / "checkpoints/02-repair.vtu") == before);
@@ -73,19 +73,21 @@ TEST_CASE("run writes checkpoints, run.pvd, summary, log and result", "[pipeline
     }
     SECTION("a changed repair key re-runs repair only") {
         const auto extract_time = fs::last_write_time(out / "checkpoints/01-extract.vtu");
-        const auto again = run_frontmesh("run recipe.yaml --set repair.max_hole_edges=50", dir);
+        const auto again = run_frontmesh("run recipe.yaml --until repair --set repair.max_hole_edges=50", dir);
         REQUIRE(again.exit_code == 0);
         CHECK(fs::last_write_time(out / "checkpoints/01-extract.vtu") == extract_time);
-        CHECK_THAT(again.err, Catch::Contains("[2/2] repair") && !Catch::Contains("[1/2] extract"));
+        CHECK_THAT(again.err, Catch::Contains("[2/2] repair") && !Catch::Contains("] extract"));
     }
     SECTION("--from and --until") {
-        const auto from = run_frontmesh("run recipe.yaml --from repair", dir);
+        const auto from = run_frontmesh("run recipe.yaml --from repair --until repair", dir);
         CHECK(from.exit_code == 0);
         CHECK_THAT(from.err, Catch::Contains("reading checkpoint") && Catch::Contains("[2/2] repair"));
         const auto until = run_frontmesh("run recipe.yaml --force --until extract", dir);
         CHECK(until.exit_code == 0);
         CHECK_THAT(until.err, Catch::Contains("[1/1] extract") && !Catch::Contains("repair"));
-        CHECK(run_frontmesh("run recipe.yaml --from tetra", dir).exit_code == 2);
+        const auto early = run_frontmesh("run recipe.yaml --from refine", dir);
+        CHECK(early.exit_code == 2);
+        CHECK_THAT(early.err, Catch::Contains("04-tetra.vtu") && Catch::Contains("run the earlier stages first"));
     }
 }
 
@@ -129,7 +131,7 @@ TEST_CASE("help, version and keys commands", "[pipeline]") {
 TEST_CASE("Colin27 brain: closed surface passes meshcheck, checkpoints read by VTK", "[pipeline][e2e]") {
     const std::string dir = fixtures::temp_dir("run_colin27");
     const std::string recipe = std::string(FRONTMESH_SOURCE_DIR) + "/examples/colin27-brain.yaml";
-    const auto r = run_frontmesh("run '" + recipe + "' --quiet --set output.dir=" + dir + "/out", dir);
+    const auto r = run_frontmesh("run '" + recipe + "' --quiet --until repair --set output.dir=" + dir + "/out", dir);
     INFO(r.err);
     REQUIRE(r.exit_code == 0);
     const std::string check = "/usr/bin/python3 '" + std::string(FRONTMESH_SOURCE_DIR) +
@@ -150,7 +152,11 @@ TEST_CASE("Colin27 brain: closed surface passes meshcheck, checkpoints read by V
         "    assert g.GetNumberOfCells() > 1000, f\n"
         "    for a in ('region_in', 'region_out', 'eta', 'min_angle'):\n"
         "        assert g.GetCellData().GetArray(a) is not None, (f, a)\n"
-        "    assert g.GetFieldData().GetAbstractArray('frame').GetValue(0) == 'lps'\n";
+        "    frame = g.GetFieldData().GetArray('frame')\n"
+        "    assert ''.join(chr(int(frame.GetTuple1(i))) for i in range(frame.GetNumberOfTuples())) == 'lps'\n"
+        "    import meshio\n"
+        "    m = meshio.read(f)\n"  // other tools read our checkpoints too
+        "    assert len(m.points) == g.GetNumberOfPoints(), f\n";
     write_file(dir + "/check.py", py);
     const std::string cmd = "/usr/bin/python3 '" + dir + "/check.py' '" + dir + "/out/checkpoints/01-extract.vtu' '" +
                             dir + "/out/checkpoints/02-repair.vtu' > '" + dir + "/py.txt' 2>&1";
@@ -162,7 +168,7 @@ TEST_CASE("Colin27 brain: closed surface passes meshcheck, checkpoints read by V
 TEST_CASE("AAL atlas: 116 closed, oriented regions through the command line", "[pipeline][e2e]") {
     const std::string dir = fixtures::temp_dir("run_aal");
     const std::string recipe = std::string(FRONTMESH_SOURCE_DIR) + "/examples/aal-atlas.yaml";
-    const auto r = run_frontmesh("run '" + recipe + "' --quiet --set output.dir=" + dir + "/out", dir);
+    const auto r = run_frontmesh("run '" + recipe + "' --quiet --until repair --set output.dir=" + dir + "/out", dir);
     INFO(r.err);
     REQUIRE(r.exit_code == 0);
     const std::string summary = slurp(dir + "/out/summary.json");
@@ -173,19 +179,22 @@ TEST_CASE("AAL atlas: 116 closed, oriented regions through the command line", "[
 TEST_CASE("checkpoints are identical byte for byte across runs and thread counts", "[pipeline]") {
     const std::string dir = phantom_run_dir("run_determinism");
     REQUIRE(run_frontmesh("run recipe.yaml --quiet --threads 1", dir).exit_code == 0);
-    const std::string extract1 = slurp(fs::path(dir) / "out/checkpoints/01-extract.vtu");
-    const std::string repair1 = slurp(fs::path(dir) / "out/checkpoints/02-repair.vtu");
+    std::vector<std::string> first;
+    const char* checkpoints[] = {"01-extract.vtu", "02-repair.vtu", "04-tetra.vtu", "05-refine.vtu"};
+    for (const char* c : checkpoints) first.push_back(slurp(fs::path(dir) / "out/checkpoints" / c));
     REQUIRE(run_frontmesh("run recipe.yaml --quiet --force --threads 2", dir).exit_code == 0);
-    CHECK(slurp(fs::path(dir) / "out/checkpoints/01-extract.vtu") == extract1);
-    CHECK(slurp(fs::path(dir) / "out/checkpoints/02-repair.vtu") == repair1);
-    CHECK(repair1.size() > 10000);
+    for (std::size_t i = 0; i < first.size(); ++i) {
+        INFO(checkpoints[i]);
+        CHECK(first[i].size() > 10000);
+        CHECK(slurp(fs::path(dir) / "out/checkpoints" / checkpoints[i]) == first[i]);
+    }
 }
 
 TEST_CASE("a surface input enters at repair and keeps its regions", "[pipeline]") {
     const std::string dir = phantom_run_dir("run_surface_input");
-    REQUIRE(run_frontmesh("run recipe.yaml --quiet", dir).exit_code == 0);
+    REQUIRE(run_frontmesh("run recipe.yaml --quiet --until repair", dir).exit_code == 0);
     write_file(dir + "/surface.yaml", "input:\n  surface: out/surface.vtu\noutput:\n  dir: again\n");
-    const auto r = run_frontmesh("run surface.yaml", dir);
+    const auto r = run_frontmesh("run surface.yaml --until repair", dir);
     INFO(r.err);
     REQUIRE(r.exit_code == 0);
     CHECK_THAT(r.err, Catch::Contains("reading surface") && Catch::Contains("[2/2] repair"));
