@@ -410,28 +410,38 @@ std::string run_recipe(const Recipe& recipe, const RunOptions& options) {
     // The final result: mesh.vtu for a tetrahedral mesh (a copy of the last checkpoint, or
     // written again with the region names) plus the other formats asked for, and the
     // quality report after refine; surface.vtu, a copy of the last checkpoint, for a surface.
+    // When every stage was up to date, only missing result files are written.
     prepare_folder();
+    const bool ran_any = first <= last;
+    auto wanted = [&](const fs::path& file) { return ran_any || !fs::exists(file); };
     const fs::path last_checkpoint = out.checkpoint(stages[last]);
     const bool tet_result = stages[last].out == Kind::Tets;
     const fs::path result = out.dir / (tet_result ? "mesh.vtu" : "surface.vtu");
-    if (!tet_result || names.empty())
+    if ((!tet_result || names.empty()) && wanted(result))
         io::write_atomically(result.string(), [&](const std::string& temp) {
             fs::copy_file(last_checkpoint, temp, fs::copy_options::overwrite_existing);
         });
+    std::vector<std::pair<fs::path, io::MeshFormat>> exports;
     if (tet_result) {
+        if (!names.empty() && wanted(result)) exports.emplace_back(result, io::MeshFormat::Vtu);
+        for (const std::string& name : recipe.output.formats) {
+            const io::MeshFormat format = io::format_from_name(name);
+            const fs::path file = out.dir / io::export_file_name(format);
+            if (format != io::MeshFormat::Vtu && wanted(file)) exports.emplace_back(file, format);
+        }
+    }
+    const bool report = tet_result && recipe.output.quality_report && stages[last].name == "refine" &&
+                        wanted(out.dir / "report.html");
+    if (!exports.empty() || report) {
         const core::TetMesh mesh = std::holds_alternative<core::TetMesh>(data)
                                        ? std::get<core::TetMesh>(std::move(data))
                                        : io::read_tet_mesh(last_checkpoint.string());
         const io::FieldStrings fields = {{"frame", frame}, {"stage", stages[last].name}, {"frontmesh_version", version()}};
-        if (!names.empty()) io::write_mesh(mesh, result.string(), io::MeshFormat::Vtu, names, fields);
-        for (const std::string& name : recipe.output.formats) {
-            const io::MeshFormat format = io::format_from_name(name);
-            if (format == io::MeshFormat::Vtu) continue;
-            const fs::path file = out.dir / io::export_file_name(format);
+        for (const auto& [file, format] : exports) {
             io::write_mesh(mesh, file.string(), format, names, fields);
             info("wrote " + file.string());
         }
-        if (recipe.output.quality_report && stages[last].name == "refine") {
+        if (report) {
             const fs::path tetra_checkpoint = out.checkpoint(stages[static_cast<std::size_t>(last) - 1]);
             std::optional<core::TetMesh> before;
             if (fs::exists(tetra_checkpoint)) before = io::read_tet_mesh(tetra_checkpoint.string());

@@ -35,7 +35,7 @@ std::pair<int, std::string> referee(const fs::path& mesh, const fs::path& surfac
 TEST_CASE("nested phantom: image to refined tet mesh, three regions, surface kept", "[pipeline][volume]") {
     const std::string dir = fixtures::temp_dir("run_volume_phantom");
     fixtures::write_metaimage(fixtures::nested_ellipsoids_image(1.0, 0.6), dir + "/phantom.mha");
-    write_file(dir + "/recipe.yaml", "input:\n  image: phantom.mha\noutput:\n  dir: out\n");
+    write_file(dir + "/recipe.yaml", "input:\n  image: phantom.mha\noutput:\n  dir: out\n  formats: [vtu, msh]\n");
     const auto r = run_frontmesh("run recipe.yaml --quiet", dir);
     INFO(r.err);
     REQUIRE(r.exit_code == 0);
@@ -79,6 +79,19 @@ TEST_CASE("nested phantom: image to refined tet mesh, three regions, surface kep
     const std::string summary = slurp(out / "summary.json");
     CHECK_THAT(summary, Catch::Contains("\"name\": \"tetra\"") && Catch::Contains("\"name\": \"refine\"") &&
                             Catch::Contains("\"valid\": true") && Catch::Contains("refine.pass1."));
+
+    for (const char* f : {"mesh.msh", "report.html", "tet_skewness.svg"}) CHECK(fs::exists(out / f));
+
+    // An unchanged re-run does no work: no stage runs, no result file is written again.
+    const auto mesh_time = fs::last_write_time(out / "mesh.vtu");
+    const auto msh_time = fs::last_write_time(out / "mesh.msh");
+    const auto report_time = fs::last_write_time(out / "report.html");
+    const auto again = run_frontmesh("run recipe.yaml", dir);
+    CHECK(again.exit_code == 0);
+    CHECK_THAT(again.err, Catch::Contains("up to date"));
+    CHECK(fs::last_write_time(out / "mesh.vtu") == mesh_time);
+    CHECK(fs::last_write_time(out / "mesh.msh") == msh_time);
+    CHECK(fs::last_write_time(out / "report.html") == report_time);
 
     SECTION("--from refine reads the tetra checkpoint back") {
         const auto again = run_frontmesh("run recipe.yaml --from refine", dir);
