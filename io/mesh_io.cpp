@@ -103,6 +103,44 @@ private:
 // ---------------------------------------------------------------------------------------
 // Writing
 
+// A grid of double-precision points `xyz` (frontmesh never stores float geometry, STYLE
+// §2) and cells of K nodes each, all of VTK type `type`, as offsets + connectivity.
+template <std::size_t K>
+vtkSmartPointer<vtkUnstructuredGrid> new_grid(const std::vector<double>& xyz,
+                                              const std::vector<std::array<std::int32_t, K>>& cells,
+                                              int type) {
+    const std::size_t n_points = xyz.size() / 3;
+    const std::size_t n_cells = cells.size();
+    auto grid = vtkSmartPointer<vtkUnstructuredGrid>::New();
+    vtkNew<vtkDoubleArray> coords;
+    coords->SetNumberOfComponents(3);
+    coords->SetNumberOfTuples(static_cast<vtkIdType>(n_points));
+    std::copy(xyz.begin(), xyz.end(), coords->GetPointer(0));
+    vtkNew<vtkPoints> points;
+    points->SetData(coords);
+    grid->SetPoints(points);
+
+    vtkNew<vtkIdTypeArray> offsets;
+    vtkNew<vtkIdTypeArray> connectivity;
+    offsets->SetNumberOfTuples(static_cast<vtkIdType>(n_cells + 1));
+    connectivity->SetNumberOfTuples(static_cast<vtkIdType>(K * n_cells));
+    vtkIdType* off = offsets->GetPointer(0);
+    vtkIdType* conn = connectivity->GetPointer(0);
+    const auto limit = static_cast<std::int64_t>(n_points);
+    for (std::size_t c = 0; c < n_cells; ++c) {
+        for (std::size_t k = 0; k < K; ++k) {
+            FM_CHECK(cells[c][k] >= 0 && cells[c][k] < limit);
+            conn[K * c + k] = cells[c][k];
+        }
+        off[c] = static_cast<vtkIdType>(K * c);
+    }
+    off[n_cells] = static_cast<vtkIdType>(K * n_cells);
+    vtkNew<vtkCellArray> cell_array;
+    cell_array->SetData(offsets, connectivity);
+    grid->SetCells(type, cell_array);
+    return grid;
+}
+
 // Text entries of field data as char arrays (VTK type Int8), one per key, sorted by key so
 // the output is stable. Not vtkStringArray: meshio (and other readers of VTU) reject the
 // XML "String" type; copy_field_strings reads both back.
@@ -125,24 +163,7 @@ vtkSmartPointer<vtkUnstructuredGrid> surface_grid(const SurfaceNetwork& surface,
     FM_CHECK(surface.xyz.size() == 3 * nv);
     FM_CHECK(surface.region_in.size() == nf && surface.region_out.size() == nf);
 
-    auto grid = vtkSmartPointer<vtkUnstructuredGrid>::New();
-
-    // Double-precision points: frontmesh never stores float geometry (STYLE §2).
-    vtkNew<vtkDoubleArray> coords;
-    coords->SetNumberOfComponents(3);
-    coords->SetNumberOfTuples(static_cast<vtkIdType>(nv));
-    std::copy(surface.xyz.begin(), surface.xyz.end(), coords->GetPointer(0));
-    vtkNew<vtkPoints> points;
-    points->SetData(coords);
-    grid->SetPoints(points);
-
-    // Cells as offsets + connectivity in one pass; all of them triangles.
-    vtkNew<vtkIdTypeArray> offsets;
-    vtkNew<vtkIdTypeArray> connectivity;
-    offsets->SetNumberOfTuples(static_cast<vtkIdType>(nf + 1));
-    connectivity->SetNumberOfTuples(static_cast<vtkIdType>(3 * nf));
-    vtkIdType* off = offsets->GetPointer(0);
-    vtkIdType* conn = connectivity->GetPointer(0);
+    const vtkSmartPointer<vtkUnstructuredGrid> grid = new_grid(surface.xyz, surface.faces, VTK_TRIANGLE);
 
     vtkNew<vtkIntArray> region_in;
     vtkNew<vtkIntArray> region_out;
@@ -157,18 +178,8 @@ vtkSmartPointer<vtkUnstructuredGrid> surface_grid(const SurfaceNetwork& surface,
           static_cast<vtkDataArray*>(eta.Get()), static_cast<vtkDataArray*>(min_angle.Get())})
         a->SetNumberOfTuples(static_cast<vtkIdType>(nf));
 
-    const auto vertex_limit = static_cast<std::int64_t>(nv);
-    for (std::size_t f = 0; f < nf; ++f) {
-        const auto& t = surface.faces[f];
-        for (int k = 0; k < 3; ++k) {
-            FM_CHECK(t[k] >= 0 && t[k] < vertex_limit);
-            conn[3 * f + k] = t[k];
-        }
-        off[f] = static_cast<vtkIdType>(3 * f);
-        region_in->SetValue(static_cast<vtkIdType>(f), surface.region_in[f]);
-        region_out->SetValue(static_cast<vtkIdType>(f), surface.region_out[f]);
-    }
-    off[nf] = static_cast<vtkIdType>(3 * nf);
+    std::copy(surface.region_in.begin(), surface.region_in.end(), region_in->GetPointer(0));
+    std::copy(surface.region_out.begin(), surface.region_out.end(), region_out->GetPointer(0));
 
     // Quality per face: independent values written by index, so the result does not
     // depend on the thread count. About a fifth of the write time when run serially.
@@ -185,10 +196,6 @@ vtkSmartPointer<vtkUnstructuredGrid> surface_grid(const SurfaceNetwork& surface,
                               angle_values[f] = core::triangle_min_angle_deg(a, b, c);
                           }
                       });
-
-    vtkNew<vtkCellArray> cells;
-    cells->SetData(offsets, connectivity);
-    grid->SetCells(VTK_TRIANGLE, cells);
 
     vtkCellData* cell_data = grid->GetCellData();
     cell_data->AddArray(region_in);
@@ -681,33 +688,7 @@ vtkSmartPointer<vtkUnstructuredGrid> tet_grid(const core::TetMesh& mesh,
     FM_CHECK(mesh.region_in.size() == nf && mesh.region_out.size() == nf);
     FM_CHECK(mesh.level.empty() || mesh.level.size() == nn);
 
-    auto grid = vtkSmartPointer<vtkUnstructuredGrid>::New();
-    vtkNew<vtkDoubleArray> coords;
-    coords->SetNumberOfComponents(3);
-    coords->SetNumberOfTuples(static_cast<vtkIdType>(nn));
-    std::copy(mesh.xyz.begin(), mesh.xyz.end(), coords->GetPointer(0));
-    vtkNew<vtkPoints> points;
-    points->SetData(coords);
-    grid->SetPoints(points);
-
-    vtkNew<vtkIdTypeArray> offsets;
-    vtkNew<vtkIdTypeArray> connectivity;
-    offsets->SetNumberOfTuples(static_cast<vtkIdType>(nt + 1));
-    connectivity->SetNumberOfTuples(static_cast<vtkIdType>(4 * nt));
-    vtkIdType* off = offsets->GetPointer(0);
-    vtkIdType* conn = connectivity->GetPointer(0);
-    const auto node_limit = static_cast<std::int64_t>(nn);
-    for (std::size_t t = 0; t < nt; ++t) {
-        for (int k = 0; k < 4; ++k) {
-            FM_CHECK(mesh.tets[t][k] >= 0 && mesh.tets[t][k] < node_limit);
-            conn[4 * t + k] = mesh.tets[t][k];
-        }
-        off[t] = static_cast<vtkIdType>(4 * t);
-    }
-    off[nt] = static_cast<vtkIdType>(4 * nt);
-    vtkNew<vtkCellArray> cells;
-    cells->SetData(offsets, connectivity);
-    grid->SetCells(VTK_TETRA, cells);
+    const vtkSmartPointer<vtkUnstructuredGrid> grid = new_grid(mesh.xyz, mesh.tets, VTK_TETRA);
 
     vtkNew<vtkIntArray> region;
     region->SetName("region");
