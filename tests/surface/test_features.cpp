@@ -14,22 +14,6 @@ using namespace frontmesh;
 
 namespace {
 
-// A ball of radius r split at z = 0: label 1 below, label 2 above. Its network has three
-// patches (1|0, 2|0, 2|1) meeting at one junction circle.
-core::LabelImage split_ball_image(int n, double r) {
-    core::LabelImage image;
-    image.dims = {n, n, n};
-    image.labels.assign(image.voxel_count(), 0);
-    const double c = 0.5 * (n - 1);
-    for (int k = 0; k < n; ++k)
-        for (int j = 0; j < n; ++j)
-            for (int i = 0; i < n; ++i) {
-                const double x = i - c, y = j - c, z = k - c;
-                if (x * x + y * y + z * z <= r * r)
-                    image.labels[image.index(i, j, k)] = z < 0.0 ? 1 : 2;
-            }
-    return image;
-}
 
 core::SurfaceNetwork network_of(const core::LabelImage& image) {
     core::StageContext ctx;
@@ -41,7 +25,7 @@ core::SurfaceNetwork network_of(const core::LabelImage& image) {
 }  // namespace
 
 TEST_CASE("features of a split ball: one junction circle shared by three patches", "[remesh]") {
-    const auto bg = network_of(split_ball_image(40, 14.0));
+    const auto bg = network_of(fixtures::split_ball_image(40, 14.0));
     core::StageContext ctx;
     const auto f = surface::find_features(bg, 0.0, ctx);
     REQUIRE(f.patches.size() == 3);

@@ -30,19 +30,6 @@ core::SurfaceNetwork background_of(const core::LabelImage& image, surface::Extra
     return surface::repair(surface::extract(image, params, ctx), {}, ctx);
 }
 
-core::LabelImage split_ball_image(int n, double r) {
-    core::LabelImage image;
-    image.dims = {n, n, n};
-    image.labels.assign(image.voxel_count(), 0);
-    const double c = 0.5 * (n - 1);
-    for (int k = 0; k < n; ++k)
-        for (int j = 0; j < n; ++j)
-            for (int i = 0; i < n; ++i) {
-                const double x = i - c, y = j - c, z = k - c;
-                if (x * x + y * y + z * z <= r * r) image.labels[image.index(i, j, k)] = z < 0.0 ? 1 : 2;
-            }
-    return image;
-}
 
 // The acceptance checks of issue 3 that hold for any input.
 void check_remeshed(const core::SurfaceNetwork& bg, const surface::RemeshResult& r,
@@ -69,47 +56,11 @@ void check_remeshed(const core::SurfaceNetwork& bg, const surface::RemeshResult&
     CHECK(worst < 1e-9);
 }
 
-// Closed box [0, a]^3 (mm), each side a grid of n x n squares cut into two triangles, outward.
-core::SurfaceNetwork grid_cube(double a, int n) {
-    core::SurfaceNetwork s;
-    std::map<std::tuple<long, long, long>, std::int32_t> ids;
-    auto vertex = [&](const Eigen::Vector3d& p) {
-        const auto key = std::make_tuple(std::lround(p.x() * 1e6), std::lround(p.y() * 1e6),
-                                         std::lround(p.z() * 1e6));
-        const auto it = ids.find(key);
-        if (it != ids.end()) return it->second;
-        return ids[key] = s.add_vertex(p);
-    };
-    for (int axis = 0; axis < 3; ++axis) {
-        const int u = (axis + 1) % 3, v = (axis + 2) % 3;
-        for (int side = 0; side < 2; ++side)
-            for (int i = 0; i < n; ++i)
-                for (int j = 0; j < n; ++j) {
-                    std::int32_t q[4];
-                    const int di[4] = {0, 1, 1, 0}, dj[4] = {0, 0, 1, 1};
-                    for (int k = 0; k < 4; ++k) {
-                        Eigen::Vector3d p;
-                        p[axis] = side * a;
-                        p[u] = a * (i + di[k]) / n;
-                        p[v] = a * (j + dj[k]) / n;
-                        q[k] = vertex(p);
-                    }
-                    if (side == 1) {
-                        s.add_face(q[0], q[1], q[2], 1, 0);
-                        s.add_face(q[0], q[2], q[3], 1, 0);
-                    } else {
-                        s.add_face(q[0], q[2], q[1], 1, 0);
-                        s.add_face(q[0], q[3], q[2], 1, 0);
-                    }
-                }
-    }
-    return s;
-}
 
 }  // namespace
 
 TEST_CASE("remesh a cube with sharp edges: corners and edges kept", "[remesh]") {
-    const auto bg = grid_cube(10.0, 10);
+    const auto bg = fixtures::grid_box(10.0, 10.0, 10.0, 1.0);
     surface::RemeshParams params;
     params.edge_length = 1.5;
     params.feature_angle_deg = 30.0;
@@ -180,7 +131,7 @@ TEST_CASE("remesh the nested three-region phantom: shared interfaces", "[remesh]
 }
 
 TEST_CASE("remesh a split ball: the junction circle is kept and shared", "[remesh]") {
-    const auto bg = background_of(split_ball_image(44, 16.0), surface::ExtractMethod::SurfaceNets);
+    const auto bg = background_of(fixtures::split_ball_image(44, 16.0), surface::ExtractMethod::SurfaceNets);
     surface::RemeshParams params;
     params.edge_length = 2.0;
     core::StageContext ctx;
@@ -209,7 +160,7 @@ TEST_CASE("remesh a split ball: the junction circle is kept and shared", "[remes
 }
 
 TEST_CASE("remesh is deterministic and validates its parameters", "[remesh]") {
-    const auto bg = background_of(split_ball_image(30, 10.0), surface::ExtractMethod::SurfaceNets);
+    const auto bg = background_of(fixtures::split_ball_image(30, 10.0), surface::ExtractMethod::SurfaceNets);
     surface::RemeshParams params;
     params.edge_length = 2.0;
     core::StageContext c1, c2;

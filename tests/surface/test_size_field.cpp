@@ -14,50 +14,6 @@ using namespace frontmesh;
 
 namespace {
 
-// Closed box [0, a] x [0, b] x [0, c] (mm), each side a grid of squares of about `step` mm
-// cut into two triangles, outward, region 1 inside.
-core::SurfaceNetwork grid_box(double a, double b, double c, double step) {
-    core::SurfaceNetwork s;
-    std::map<std::tuple<long, long, long>, std::int32_t> ids;
-    auto vertex = [&](const Eigen::Vector3d& p) {
-        const auto key = std::make_tuple(std::lround(p.x() * 1e6), std::lround(p.y() * 1e6),
-                                         std::lround(p.z() * 1e6));
-        const auto it = ids.find(key);
-        if (it != ids.end()) return it->second;
-        const auto id = s.add_vertex(p);
-        ids.emplace(key, id);
-        return id;
-    };
-    const Eigen::Vector3d size(a, b, c);
-    for (int axis = 0; axis < 3; ++axis) {
-        const int u = (axis + 1) % 3, v = (axis + 2) % 3;
-        const int nu = std::max(1, int(std::lround(size[u] / step)));
-        const int nv = std::max(1, int(std::lround(size[v] / step)));
-        for (int side = 0; side < 2; ++side) {
-            for (int i = 0; i < nu; ++i)
-                for (int j = 0; j < nv; ++j) {
-                    std::int32_t q[4];
-                    const int di[4] = {0, 1, 1, 0}, dj[4] = {0, 0, 1, 1};
-                    for (int k = 0; k < 4; ++k) {
-                        Eigen::Vector3d p;
-                        p[axis] = side * size[axis];
-                        p[u] = size[u] * (i + di[k]) / nu;
-                        p[v] = size[v] * (j + dj[k]) / nv;
-                        q[k] = vertex(p);
-                    }
-                    // (u, v, axis) is right-handed: counter-clockwise in (u, v) faces +axis.
-                    if (side == 1) {
-                        s.add_face(q[0], q[1], q[2], 1, 0);
-                        s.add_face(q[0], q[2], q[3], 1, 0);
-                    } else {
-                        s.add_face(q[0], q[2], q[1], 1, 0);
-                        s.add_face(q[0], q[3], q[2], 1, 0);
-                    }
-                }
-        }
-    }
-    return s;
-}
 
 // Sizes of the vertices on the slab's big faces at least `margin` from the rim.
 std::vector<double> middle_sizes(const core::SurfaceNetwork& s, const surface::SizeField& f,
@@ -74,7 +30,7 @@ std::vector<double> middle_sizes(const core::SurfaceNetwork& s, const surface::S
 }  // namespace
 
 TEST_CASE("grid box fixture is closed and outward", "[remesh]") {
-    const auto s = grid_box(10, 10, 1, 0.5);
+    const auto s = fixtures::grid_box(10, 10, 1, 0.5);
     const auto checks = core::check_region_boundaries(s);
     REQUIRE(checks.size() == 1);
     CHECK(checks[0].is_closed());
@@ -92,7 +48,7 @@ TEST_CASE("size field: uniform on a ball, thin slab limited by its thickness", "
         for (const double x : f.vertex_sizes()) CHECK(x == Approx(2.0));
     }
     const double a = 20.0, t = 1.0;
-    const auto slab = grid_box(a, a, t, 0.5);
+    const auto slab = fixtures::grid_box(a, a, t, 0.5);
     surface::SizeFieldParams p;
     p.edge_length = 3.0;
     p.min_edge_length = 0.1;
@@ -120,8 +76,8 @@ TEST_CASE("size field: uniform on a ball, thin slab limited by its thickness", "
 }
 
 TEST_CASE("size field: a narrow gap between two boxes", "[remesh]") {
-    auto s = grid_box(10, 10, 4, 0.5);
-    auto upper = grid_box(10, 10, 4, 0.5);
+    auto s = fixtures::grid_box(10, 10, 4, 0.5);
+    auto upper = fixtures::grid_box(10, 10, 4, 0.5);
     const auto offset = std::int32_t(s.vertex_count());
     for (std::size_t v = 0; v < upper.vertex_count(); ++v)
         s.add_vertex(upper.point(std::int32_t(v)) + Eigen::Vector3d(0, 0, 4.6));
@@ -144,7 +100,7 @@ TEST_CASE("size field: a narrow gap between two boxes", "[remesh]") {
 }
 
 TEST_CASE("size field: gradation limit holds on every edge", "[remesh]") {
-    const auto s = grid_box(20, 20, 1, 0.5);
+    const auto s = fixtures::grid_box(20, 20, 1, 0.5);
     core::StageContext ctx;
     for (const double g : {1.1, 1.3, 2.0}) {
         surface::SizeFieldParams p;

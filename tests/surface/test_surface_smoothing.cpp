@@ -40,19 +40,6 @@ double polyline_distance(const std::vector<Eigen::Vector3d>& pl, const Eigen::Ve
     return best;
 }
 
-core::LabelImage split_ball_image(int n, double r) {
-    core::LabelImage image;
-    image.dims = {n, n, n};
-    image.labels.assign(image.voxel_count(), 0);
-    const double c = 0.5 * (n - 1);
-    for (int k = 0; k < n; ++k)
-        for (int j = 0; j < n; ++j)
-            for (int i = 0; i < n; ++i) {
-                const double x = i - c, y = j - c, z = k - c;
-                if (x * x + y * y + z * z <= r * r) image.labels[image.index(i, j, k)] = z < 0.0 ? 1 : 2;
-            }
-    return image;
-}
 
 }  // namespace
 
@@ -95,7 +82,7 @@ TEST_CASE("smoothing a surface-nets network: curves slide on themselves, patches
     surface::ExtractParams ep;
     ep.method = surface::ExtractMethod::SurfaceNets;
     ep.smoothing_iterations = 0;  // a raw staircase: plenty to improve
-    const auto background = surface::repair(surface::extract(split_ball_image(36, 12.0), ep, ctx), {}, ctx);
+    const auto background = surface::repair(surface::extract(fixtures::split_ball_image(36, 12.0), ep, ctx), {}, ctx);
     const auto features = surface::find_features(background, 0.0, ctx);
     REQUIRE(features.curves.size() == 1);
 
