@@ -68,7 +68,7 @@ Options:
   --labels TABLE        convert: label names (atlas .txt, FreeSurfer/ITK-SNAP table) for
                         region, group and set names
 
-Stages, in order: extract, repair (remesh, tetra and refine are to come).
+Stages, in order: extract, repair, remesh, tetra, refine.
 A stage whose input and parameters are unchanged since the last run is skipped.
 Every recipe key, its default and unit: configs/reference.yaml.
 

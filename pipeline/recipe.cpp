@@ -206,6 +206,10 @@ const std::vector<KeySpec>& key_specs() {
          }},
         {"extract.manifold_cleanup", "true",
          [](const YAML::Node& n, Recipe& r, const Where& w) { r.extract.manifold_cleanup = as_bool(n, w); }},
+        integer_key("extract.closing_voxels", "0", &Recipe::morphology, &surface::MorphologyParams::closing_voxels, 0,
+                    10),
+        integer_key("extract.opening_voxels", "0", &Recipe::morphology, &surface::MorphologyParams::opening_voxels, 0,
+                    10),
         {"repair.merge_tolerance_mm", "1.0e-6",
          [](const YAML::Node& n, Recipe& r, const Where& w) { r.repair.merge_tolerance_mm = as_number(n, w, 0.0, 1.0); }},
         {"repair.min_component_volume_mm3", "1.0",
@@ -226,6 +230,30 @@ const std::vector<KeySpec>& key_specs() {
          [](const YAML::Node& n, Recipe& r, const Where& w) { r.repair.check_self_intersections = as_bool(n, w); }},
         {"repair.fail_on_self_intersections", "true",
          [](const YAML::Node& n, Recipe& r, const Where& w) { r.repair.fail_on_self_intersections = as_bool(n, w); }},
+        number_key("remesh.edge_length", "0.0", &Recipe::remesh, &surface::RemeshParams::edge_length, 0.0, 1e4),
+        number_key("remesh.gradation", "1.3", &Recipe::remesh, &surface::RemeshParams::gradation, 1.0, 10.0),
+        number_key("remesh.min_edge_length", "0.0", &Recipe::remesh, &surface::RemeshParams::min_edge_length, 0.0, 1e4),
+        number_key("remesh.max_edge_length", "0.0", &Recipe::remesh, &surface::RemeshParams::max_edge_length, 0.0, 1e4),
+        number_key("remesh.curvature_angle_deg", "0.0", &Recipe::remesh, &surface::RemeshParams::curvature_angle_deg,
+                   0.0, 89.0),
+        integer_key("remesh.thickness_layers", "0", &Recipe::remesh, &surface::RemeshParams::thickness_layers, 0, 20),
+        number_key("remesh.feature_angle_deg", "0.0", &Recipe::remesh, &surface::RemeshParams::feature_angle_deg, 0.0,
+                   179.0),
+        {"remesh.label_edge_length", "{}",
+         [](const YAML::Node& n, Recipe& r, const Where& w) {
+             if (!n.IsMap()) w.fail("expected a mapping of label: edge length in mm, such as {3: 0.8}, got " + describe(n));
+             r.remesh.label_edge_length.clear();
+             for (const auto& entry : n) {
+                 const auto label = static_cast<core::Label>(as_integer(entry.first, w, 0, 2147483647));
+                 r.remesh.label_edge_length[label] = as_number(entry.second, w, 1e-6, 1e4);
+             }
+         }},
+        integer_key("remesh.smoothing_iterations", "5", &Recipe::remesh, &surface::RemeshParams::smoothing_iterations,
+                    0, 100),
+        number_key("remesh.flip_max_dihedral_deg", "10.0", &Recipe::remesh,
+                   &surface::RemeshParams::flip_max_dihedral_deg, 0.0, 90.0),
+        bool_key("remesh.check_self_intersections", "true", &Recipe::remesh,
+                 &surface::RemeshParams::check_self_intersections),
         number_key("tetra.stretching", "1.15", &Recipe::tetra, &volume::TetraParams::stretching, 1.0, 2.0, true),
         integer_key("tetra.height_smoothing_iterations", "3", &Recipe::tetra,
                     &volume::TetraParams::height_smoothing_iterations, 0, 100),
@@ -253,8 +281,7 @@ const std::vector<KeySpec>& key_specs() {
 }
 
 // Stages named by the method whose sections a recipe may not use yet.
-const std::vector<std::pair<std::string, std::string>> kPlannedSections = {
-    {"remesh", "3"}};
+const std::vector<std::pair<std::string, std::string>> kPlannedSections = {};
 
 [[noreturn]] void unknown_key(const std::string& key, const std::string& origin) {
     std::string best;
@@ -371,6 +398,7 @@ Recipe load_recipe(const std::string& path, const std::vector<std::string>& over
     recipe.extract.labels = in.labels;
     surface::validate(recipe.extract);
     surface::validate(recipe.repair);
+    surface::validate(recipe.remesh);
     volume::validate(recipe.tetra);
     volume::validate(recipe.refine);
     return recipe;
@@ -395,7 +423,8 @@ std::string canonical_params(const Recipe& recipe, const std::string& section) {
         const auto& e = recipe.extract;
         s << "method=" << static_cast<int>(e.method) << ";blur=" << e.blur_sigma_mm
           << ";iterations=" << e.smoothing_iterations << ";relaxation=" << e.smoothing_relaxation
-          << ";cleanup=" << e.manifold_cleanup;
+          << ";cleanup=" << e.manifold_cleanup << ";closing=" << recipe.morphology.closing_voxels
+          << ";opening=" << recipe.morphology.opening_voxels;
         for (auto l : e.labels) s << ";label=" << l;
     } else if (section == "repair") {
         const auto& p = recipe.repair;
@@ -403,6 +432,14 @@ std::string canonical_params(const Recipe& recipe, const std::string& section) {
           << ";min_faces=" << p.min_component_faces << ";max_hole=" << p.max_hole_edges
           << ";fill=" << p.fill_holes << ";check_si=" << p.check_self_intersections
           << ";fail_si=" << p.fail_on_self_intersections;
+    } else if (section == "remesh") {
+        const auto& m = recipe.remesh;
+        s << "h=" << m.edge_length << ";gradation=" << m.gradation << ";min=" << m.min_edge_length
+          << ";max=" << m.max_edge_length << ";curvature=" << m.curvature_angle_deg
+          << ";layers=" << m.thickness_layers << ";feature=" << m.feature_angle_deg
+          << ";smoothing=" << m.smoothing_iterations << ";flip=" << m.flip_max_dihedral_deg
+          << ";check_si=" << m.check_self_intersections;
+        for (const auto& [label, size] : m.label_edge_length) s << ";label" << label << "=" << size;
     } else if (section == "tetra") {
         const auto& t = recipe.tetra;
         s << "stretching=" << t.stretching << ";height_smoothing=" << t.height_smoothing_iterations

@@ -9,6 +9,8 @@
 
 #include "pipeline/core/label_image.h"
 #include "surface/extract.h"
+#include "surface/morphology.h"
+#include "surface/remesh.h"
 #include "surface/repair.h"
 #include "volume/refine.h"
 #include "volume/tetra.h"
@@ -37,7 +39,9 @@ struct Recipe {
     InputSection input;
     OutputSection output;
     surface::ExtractParams extract;
+    surface::MorphologyParams morphology;  ///< extract.closing_voxels, extract.opening_voxels
     surface::RepairParams repair;
+    surface::RemeshParams remesh;
     volume::TetraParams tetra;
     volume::RefineParams refine;
 };

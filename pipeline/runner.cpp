@@ -23,6 +23,8 @@
 #include "pipeline/quality_report.h"
 #include "pipeline/report.h"
 #include "volume/refine.h"
+#include "surface/morphology.h"
+#include "surface/remesh.h"
 #include "volume/tetra.h"
 
 namespace frontmesh::pipeline {
@@ -44,6 +46,7 @@ const std::vector<StageDef>& stage_defs() {
     static const std::vector<StageDef> defs = {
         {"extract", 1, Kind::Image, Kind::Surface},
         {"repair", 2, Kind::Surface, Kind::Surface},
+        {"remesh", 3, Kind::Surface, Kind::Surface},
         {"tetra", 4, Kind::Surface, Kind::Tets},
         {"refine", 5, Kind::Tets, Kind::Tets},
     };
@@ -346,9 +349,26 @@ std::string run_recipe(const Recipe& recipe, const RunOptions& options) {
         io::PointArrays point_arrays;  // extra per-point figures of the checkpoint
         try {
             if (stage.name == "extract") {
-                data = surface::extract(std::get<core::LabelImage>(data), recipe.extract, ctx);
+                auto& image = std::get<core::LabelImage>(data);
+                if (recipe.morphology.closing_voxels > 0) {
+                    const std::size_t n = surface::close_object(image, recipe.morphology.closing_voxels);
+                    ctx.count("extract.closing_filled_voxels", double(n));
+                    ctx.info("extract: closing of " + std::to_string(recipe.morphology.closing_voxels) +
+                             " voxel(s) filled " + std::to_string(n) + " voxels");
+                }
+                if (recipe.morphology.opening_voxels > 0) {
+                    const std::size_t n = surface::open_object(image, recipe.morphology.opening_voxels);
+                    ctx.count("extract.opening_removed_voxels", double(n));
+                    ctx.info("extract: opening of " + std::to_string(recipe.morphology.opening_voxels) +
+                             " voxel(s) removed " + std::to_string(n) + " voxels");
+                }
+                data = surface::extract(image, recipe.extract, ctx);
             } else if (stage.name == "repair") {
                 data = surface::repair(std::get<core::SurfaceNetwork>(data), recipe.repair, ctx);
+            } else if (stage.name == "remesh") {
+                surface::RemeshResult r = surface::remesh(std::get<core::SurfaceNetwork>(data), recipe.remesh, ctx);
+                point_arrays["target_size"] = std::move(r.target_size);
+                data = std::move(r.surface);
             } else if (stage.name == "tetra") {
                 data = volume::tetra(std::get<core::SurfaceNetwork>(data), recipe.tetra, ctx);
             } else if (stage.name == "refine") {

@@ -13,6 +13,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
+#include <fstream>
 #include <limits>
 #include <queue>
 #include <sstream>
@@ -101,9 +103,10 @@ struct Candidate {
 class FrontMesher {
 public:
     FrontMesher(const BackgroundPatch& patch, const SizeFunction& size, const FrontParams& params,
-                core::StageContext& ctx)
-        : patch_(patch), size_(size), params_(params), ctx_(ctx),
+                core::StageContext& ctx, int attempt = 0)
+        : patch_(patch), size_(size), params_(params), ctx_(ctx), attempt_(attempt),
           front_points_(domain_of(patch), core::AdtItems::points),
+          triangle_boxes_(domain_of(patch), core::AdtItems::boxes),
           remesh_sites_(domain_of(patch), core::AdtItems::points) {}
 
     PatchMesh run(const std::vector<PatchLoop>& loops);
@@ -215,6 +218,10 @@ private:
         }
         ++live_triangles_;
         for (int k = 0; k < 3; ++k) sync_point(v[k]);
+        core::AdtBox box = core::AdtBox::of_point(xyz_[static_cast<std::size_t>(a)]);
+        box.extend(xyz_[static_cast<std::size_t>(b)]);
+        box.extend(xyz_[static_cast<std::size_t>(c)]);
+        triangle_boxes_.insert(t, box);
     }
     // Removes triangle t; the reverse of add_triangle.
     void remove_triangle(std::int32_t t) {
@@ -239,6 +246,7 @@ private:
         }
         --live_triangles_;
         for (int k = 0; k < 3; ++k) sync_point(tri[static_cast<std::size_t>(k)]);
+        triangle_boxes_.remove(t);
     }
 
     // --- the step ---------------------------------------------------------------------------
@@ -255,11 +263,14 @@ private:
     bool advance(std::int32_t e, int fails);
     bool is_valid(std::int32_t a, std::int32_t b, std::int32_t c, const Eigen::Vector3d& xc,
                   const Eigen::Vector3d& nc, const Frame& fr, double min_cos, double corner_cos);
+    bool crosses_mesh(std::int32_t a, std::int32_t b, std::int32_t c, const Eigen::Vector3d& xc);
     bool sector_ok_at_a(std::int32_t a, std::int32_t b, std::int32_t c, const P2& pc, const Frame& fr) const;
     bool sector_ok_at_b(std::int32_t a, std::int32_t b, std::int32_t c, const P2& pc, const Frame& fr) const;
     bool sector_ok_at_c(std::int32_t a, std::int32_t b, std::int32_t c, const Frame& fr) const;
     void gather(const Eigen::Vector3d& center, double radius, const Frame& fr);
     void local_remesh(std::int32_t e);
+    bool close_small_loop(std::int32_t e);
+    void dump_near(const Eigen::Vector3d& centre, double radius) const;
     void seed();
     void smooth();
 
@@ -267,6 +278,7 @@ private:
     const SizeFunction& size_;
     const FrontParams& params_;
     core::StageContext& ctx_;
+    const int attempt_;  // 0 first; later attempts seed elsewhere
 
     std::vector<Eigen::Vector3d> xyz_, normal_;
     std::vector<std::int32_t> face_, head_out_, head_in_, tri_head_;
@@ -277,17 +289,21 @@ private:
     std::vector<std::int32_t> tri_next_;
     std::priority_queue<QueueEntry, std::vector<QueueEntry>, Later> queue_;
     core::Adt front_points_;
+    core::Adt triangle_boxes_;  // every live triangle, for the exact 3-D crossing test
+    std::vector<std::int32_t> box_hits_;
     core::Adt remesh_sites_;  // where local remeshing happened: the region grows there
     double max_front_length_ = 0.0;
     std::int64_t front_size_ = 0, live_triangles_ = 0;
     std::int64_t remeshings_ = 0;
-    std::int64_t why_[10] = {};  // rejected candidates by test, for the counters
+    std::int64_t closed_loops_ = 0;
+    std::int64_t why_[11] = {};  // rejected candidates by test, for the counters
     // Smallest angle (radians) a new triangle may leave between itself and a front edge at
     // a shared point (the paper's 5-degree edge-face angle test, stricter on a first try).
     double min_gap_ = 0.0;
 
     // Scratch of one step: nearby front points (same sheet) and the front edges at them.
     std::vector<std::int32_t> near_points_, near_edges_, scratch_ids_;
+    std::vector<std::int32_t> gathered_all_;  // every front point of the last gather()
     std::vector<std::int32_t> edge_stamp_;
     std::int32_t stamp_ = 0;
 };
@@ -296,6 +312,7 @@ private:
 // (normal within 90 degrees: the facing sheet of a thin gap is ignored) and their edges.
 void FrontMesher::gather(const Eigen::Vector3d& center, double radius, const Frame& fr) {
     front_points_.query_sphere(center, radius, scratch_ids_);
+    gathered_all_ = scratch_ids_;
     near_points_.clear();
     near_edges_.clear();
     if (edge_stamp_.size() < edges_.size()) edge_stamp_.resize(edges_.size() + edges_.size() / 2 + 16, 0);
@@ -398,6 +415,60 @@ bool FrontMesher::sector_ok_at_c(std::int32_t a, std::int32_t b, std::int32_t c,
     return end < limit - min_gap_;
 }
 
+// Exact 3-D test of the new triangle (a, b, c) (c = -1: a new point at xc) against every live
+// triangle whose box meets its box: true when they share a point other than their common
+// vertices (with one common vertex: the far edge of one meets the other; with a common edge:
+// the two fold onto each other). The tangent-plane tests see one sheet; this one sees all,
+// so the front never crosses a thin gap or folds over a ridge.
+bool FrontMesher::crosses_mesh(std::int32_t a, std::int32_t b, std::int32_t c,
+                               const Eigen::Vector3d& xc) {
+    const std::int32_t mine[3] = {a, b, c};
+    const double* pm[3] = {xyz_[static_cast<std::size_t>(a)].data(), xyz_[static_cast<std::size_t>(b)].data(), xc.data()};
+    core::AdtBox box = core::AdtBox::of_point(xyz_[static_cast<std::size_t>(a)]);
+    box.extend(xyz_[static_cast<std::size_t>(b)]);
+    box.extend(xc);
+    triangle_boxes_.query_box(box, box_hits_);
+    for (const std::int32_t t : box_hits_) {
+        const auto& o = tris_[static_cast<std::size_t>(t)];
+        const double* po[3] = {xyz_[static_cast<std::size_t>(o[0])].data(), xyz_[static_cast<std::size_t>(o[1])].data(),
+                               xyz_[static_cast<std::size_t>(o[2])].data()};
+        int im[3], io[3], n = 0;  // positions of shared vertices
+        for (int i = 0; i < 3; ++i)
+            for (int j = 0; j < 3; ++j)
+                if (mine[i] >= 0 && mine[i] == o[static_cast<std::size_t>(j)]) {
+                    im[n] = i;
+                    io[n] = j;
+                    ++n;
+                }
+        if (n == 0) {
+            if (core::triangles_intersect(pm[0], pm[1], pm[2], po[0], po[1], po[2])) return true;
+        } else if (n == 1) {
+            // Far edges against the other triangle, both ways.
+            const double* m0 = pm[(im[0] + 1) % 3];
+            const double* m1 = pm[(im[0] + 2) % 3];
+            const double* o0 = po[(io[0] + 1) % 3];
+            const double* o1 = po[(io[0] + 2) % 3];
+            if (core::segment_intersects_triangle(m0, m1, po[0], po[1], po[2]) ||
+                core::segment_intersects_triangle(o0, o1, pm[0], pm[1], pm[2]))
+                return true;
+        } else if (n == 2) {
+            // Common edge: the free vertices must not fold onto each other.
+            const int fm = 3 - im[0] - im[1], fo = 3 - io[0] - io[1];
+            const double* e0 = pm[im[0]];
+            const double* e1 = pm[im[1]];
+            if (core::orient3d(e0, e1, pm[fm], po[fo]) == 0) {
+                // Coplanar: overlap unless the free vertices lie on opposite sides of the edge.
+                if (core::segment_intersects_triangle(pm[fm], pm[fm], po[0], po[1], po[2]) ||
+                    core::segment_intersects_triangle(po[fo], po[fo], pm[0], pm[1], pm[2]))
+                    return true;
+            }
+        } else {
+            return true;  // the same triangle again
+        }
+    }
+    return false;
+}
+
 // The 2-D analogue of the §3.1.4 tests for triangle (a, b, c), c at xc with background
 // normal nc (c = -1 for a new point). Uses near_points_/near_edges_ from gather().
 bool FrontMesher::is_valid(std::int32_t a, std::int32_t b, std::int32_t c,
@@ -459,6 +530,7 @@ bool FrontMesher::is_valid(std::int32_t a, std::int32_t b, std::int32_t c,
                 return ++why_[6], false;
         }
     }
+    if (crosses_mesh(a, b, c, xc)) return ++why_[10], false;
     return true;
 }
 
@@ -579,6 +651,13 @@ bool FrontMesher::advance(std::int32_t e, int fails) {
                 break;
             }
         }
+        // Nor onto a point of another sheet (over a sharp ridge both sides project to the
+        // same places): that point is a candidate of its own, the short way round.
+        for (const std::int32_t q : gathered_all_) {
+            if (!clear) break;
+            if (q == a || q == b) continue;
+            if ((xyz_[static_cast<std::size_t>(q)] - pr.point).squaredNorm() < 0.25 * point_gap2) clear = false;
+        }
         if (!clear) { ++why_[8]; continue; }
         for (const std::int32_t f : near_edges_) {
             const FrontEdge& fe = edges_[static_cast<std::size_t>(f)];
@@ -598,6 +677,86 @@ bool FrontMesher::advance(std::int32_t e, int fails) {
     return false;
 }
 
+// Closing of small fronts: when edge e lies on a simple closed front loop of at most
+// kMaxClosingLoop edges, the loop is triangulated at once by the triangulation of the polygon
+// that maximises the smallest angle (dynamic programming over its diagonals). Each triangle
+// must agree with the background normals at its corners and a diagonal must not be a mesh
+// edge already. The smoothing after the front mends the angles.
+bool FrontMesher::close_small_loop(std::int32_t e) {
+    constexpr int kMaxClosingLoop = 24;
+    std::vector<std::int32_t> loop = {edges_[static_cast<std::size_t>(e)].a};
+    std::int32_t cur = e;
+    while (true) {
+        const std::int32_t b = edges_[static_cast<std::size_t>(cur)].b;
+        if (b == loop.front()) break;
+        if (static_cast<int>(loop.size()) >= kMaxClosingLoop) return false;
+        // b must have exactly one outgoing front edge and not repeat.
+        const std::int32_t out = head_out_[static_cast<std::size_t>(b)];
+        if (out < 0 || edges_[static_cast<std::size_t>(out)].next_out >= 0) return false;
+        if (std::find(loop.begin(), loop.end(), b) != loop.end()) return false;
+        loop.push_back(b);
+        cur = out;
+    }
+    const int m = static_cast<int>(loop.size());
+    if (m < 3) return false;
+    if (head_in_[static_cast<std::size_t>(loop.front())] < 0 ||
+        edges_[static_cast<std::size_t>(head_in_[static_cast<std::size_t>(loop.front())])].next_in >= 0)
+        return false;
+    Eigen::Vector3d n_avg = Eigen::Vector3d::Zero();
+    for (const std::int32_t v : loop) n_avg += normal_[static_cast<std::size_t>(v)];
+    if (n_avg.norm() < 1e-9) return false;
+    n_avg.normalize();
+    auto X = [&](int i) -> const Eigen::Vector3d& { return xyz_[static_cast<std::size_t>(loop[std::size_t(i)])]; };
+    auto diagonal_ok = [&](int i, int j) {
+        if (j == i + 1 || (i == 0 && j == m - 1)) return true;  // a loop edge
+        const std::int32_t x = loop[std::size_t(i)], y = loop[std::size_t(j)];
+        return !has_mesh_edge(x, y) && !has_mesh_edge(y, x);
+    };
+    auto quality = [&](int i, int j, int k) {
+        const Eigen::Vector3d t = (X(j) - X(i)).cross(X(k) - X(i));
+        const double tl = t.norm();
+        if (!(tl > 0.0) || t.dot(n_avg) <= 0.1 * tl) return -1.0;
+        for (const int c : {i, j, k})
+            if (t.dot(normal_[static_cast<std::size_t>(loop[std::size_t(c)])]) <= -0.2 * tl) return -1.0;
+        return core::triangle_min_angle_deg(X(i), X(j), X(k));
+    };
+    // best[i][j]: the largest smallest angle of a triangulation of the chain i..j (j > i + 1).
+    std::vector<double> best(std::size_t(m * m), 180.0);
+    std::vector<int> split(std::size_t(m * m), -1);
+    for (int len = 2; len < m; ++len)
+        for (int i = 0; i + len < m; ++i) {
+            const int j = i + len;
+            double& b = best[std::size_t(i * m + j)];
+            b = -1.0;
+            if (!diagonal_ok(i, j)) continue;
+            for (int k = i + 1; k < j; ++k) {
+                const double q = std::min({quality(i, k, j), k > i + 1 ? best[std::size_t(i * m + k)] : 180.0,
+                                           j > k + 1 ? best[std::size_t(k * m + j)] : 180.0});
+                if (q > b) {
+                    b = q;
+                    split[std::size_t(i * m + j)] = k;
+                }
+            }
+        }
+    if (best[std::size_t(m - 1)] < 1.0) return false;
+    std::vector<std::pair<int, int>> todo = {{0, m - 1}};
+    std::vector<std::array<std::int32_t, 3>> made;
+    while (!todo.empty()) {
+        const auto [i, j] = todo.back();
+        todo.pop_back();
+        if (j < i + 2) continue;
+        const int k = split[std::size_t(i * m + j)];
+        made.push_back({loop[std::size_t(i)], loop[std::size_t(k)], loop[std::size_t(j)]});
+        todo.push_back({i, k});
+        todo.push_back({k, j});
+    }
+    for (const auto& t : made)
+        if (crosses_mesh(t[0], t[1], t[2], xyz_[static_cast<std::size_t>(t[2])])) return false;
+    for (const auto& t : made) add_triangle(t[0], t[1], t[2]);
+    ++closed_loops_;
+    return true;
+}
+
 // §3.2: remove the triangles around the ends of a stuck edge, the region growing with the
 // number of earlier remeshings there, and re-open the front.
 void FrontMesher::local_remesh(std::int32_t e) {
@@ -608,6 +767,7 @@ void FrontMesher::local_remesh(std::int32_t e) {
     remesh_sites_.query_sphere(centre, reach, scratch_ids_);
     const int level = std::min(1 + static_cast<int>(scratch_ids_.size()) / 2, 8);
     if (static_cast<int>(scratch_ids_.size()) >= params_.max_local_remesh) {
+        dump_near(centre, std::max(10.0 * reach, 8.0));
         FM_THROW(MeshingError, "remesh: the front cannot be closed near " + where(centre) + " after " +
                                    std::to_string(scratch_ids_.size()) + " local remeshings there");
     }
@@ -625,10 +785,12 @@ void FrontMesher::local_remesh(std::int32_t e) {
         std::sort(ring.begin(), ring.end());
         ring.erase(std::unique(ring.begin(), ring.end()), ring.end());
     }
-    if (triangles.empty() || static_cast<std::int64_t>(triangles.size()) >= live_triangles_)
+    if (triangles.empty() || static_cast<std::int64_t>(triangles.size()) >= live_triangles_) {
+        dump_near(centre, std::max(10.0 * reach, 8.0));
         FM_THROW(MeshingError, "remesh: the front cannot advance from edge at " +
                                    where(xyz_[static_cast<std::size_t>(a)]) +
                                    " and there is nothing to remesh around it");
+    }
     for (const std::int32_t t : triangles) remove_triangle(t);
     // A stuck loop edge survives the removal: give it a fresh start.
     if (edges_[static_cast<std::size_t>(e)].alive) {
@@ -638,11 +800,67 @@ void FrontMesher::local_remesh(std::int32_t e) {
     ++remeshings_;
 }
 
+// Debugging aid: with FRONTMESH_FRONT_DUMP=path set, the triangles, front edges and
+// background faces within `radius` of `centre` go to a legacy VTK file (cell data `kind`:
+// 0 triangle, 1 front edge, 2 background face) when the front cannot be closed.
+void FrontMesher::dump_near(const Eigen::Vector3d& centre, double radius) const {
+    const char* path = std::getenv("FRONTMESH_FRONT_DUMP");
+    if (path == nullptr) return;
+    std::vector<Eigen::Vector3d> pts;
+    std::vector<std::vector<std::int32_t>> cells;
+    std::vector<int> kind;
+    auto near = [&](const Eigen::Vector3d& p) { return (p - centre).norm() <= radius; };
+    for (std::size_t t = 0; t < tris_.size(); ++t) {
+        if (!tri_alive_[t]) continue;
+        const auto& v = tris_[t];
+        if (!near(xyz_[std::size_t(v[0])])) continue;
+        std::vector<std::int32_t> c;
+        for (const auto i : v) { c.push_back(std::int32_t(pts.size())); pts.push_back(xyz_[std::size_t(i)]); }
+        cells.push_back(c);
+        kind.push_back(0);
+    }
+    for (const FrontEdge& fe : edges_) {
+        if (!fe.alive || !near(xyz_[std::size_t(fe.a)])) continue;
+        cells.push_back({std::int32_t(pts.size()), std::int32_t(pts.size() + 1)});
+        pts.push_back(xyz_[std::size_t(fe.a)]);
+        pts.push_back(xyz_[std::size_t(fe.b)]);
+        kind.push_back(1);
+    }
+    const core::SurfaceNetwork& bg = patch_.background();
+    for (const std::int32_t f : patch_.faces()) {
+        const auto& v = bg.faces[std::size_t(f)];
+        if (!near(bg.point(v[0]))) continue;
+        std::vector<std::int32_t> c;
+        for (const auto i : v) { c.push_back(std::int32_t(pts.size())); pts.push_back(bg.point(i)); }
+        cells.push_back(c);
+        kind.push_back(2);
+    }
+    std::ostringstream name;
+    name << path << "-" << std::lround(centre.x()) << "_" << std::lround(centre.y()) << "_"
+         << std::lround(centre.z()) << ".vtk";
+    std::ofstream out(name.str());
+    out.precision(17);
+    out << "# vtk DataFile Version 3.0\nfront dump\nASCII\nDATASET POLYDATA\nPOINTS " << pts.size() << " double\n";
+    for (const auto& p : pts) out << p.x() << " " << p.y() << " " << p.z() << "\n";
+    std::size_t lines = 0, polys = 0;
+    for (const auto& c : cells) (c.size() == 2 ? lines : polys) += c.size() + 1;
+    std::size_t nl = 0, np = 0;
+    for (const auto& c : cells) (c.size() == 2 ? nl : np) += 1;
+    out << "LINES " << nl << " " << lines << "\n";
+    for (const auto& c : cells) if (c.size() == 2) out << "2 " << c[0] << " " << c[1] << "\n";
+    out << "POLYGONS " << np << " " << polys << "\n";
+    for (const auto& c : cells) if (c.size() == 3) out << "3 " << c[0] << " " << c[1] << " " << c[2] << "\n";
+    out << "CELL_DATA " << cells.size() << "\nSCALARS kind int 1\nLOOKUP_TABLE default\n";
+    for (std::size_t i = 0; i < cells.size(); ++i) if (cells[i].size() == 2) out << kind[i] << "\n";
+    for (std::size_t i = 0; i < cells.size(); ++i) if (cells[i].size() == 3) out << kind[i] << "\n";
+}
+
 // A closed patch without loops starts from an equilateral triangle of the target size on the
 // patch's first face.
 void FrontMesher::seed() {
     const core::SurfaceNetwork& bg = patch_.background();
-    const std::int32_t f0 = patch_.faces().front();
+    const auto& faces = patch_.faces();
+    const std::int32_t f0 = faces[(static_cast<std::size_t>(attempt_) * 7919u) % faces.size()];
     const auto& fv = bg.faces[static_cast<std::size_t>(f0)];
     const Eigen::Vector3d centre = (bg.point(fv[0]) + bg.point(fv[1]) + bg.point(fv[2])) / 3.0;
     const Eigen::Vector3d n = patch_.smooth_normal(f0);
@@ -717,6 +935,8 @@ PatchMesh FrontMesher::run(const std::vector<PatchLoop>& loops) {
         ++again.fails;
         if (again.fails < 2)
             queue_.push({again.fails, top.length, top.edge});
+        else if (close_small_loop(top.edge))
+            continue;
         else if (remeshings_ >= max_remeshings)
             FM_THROW(MeshingError, "remesh: the front stalls near " +
                                        where(xyz_[static_cast<std::size_t>(fe.a)]) + " (" +
@@ -727,12 +947,13 @@ PatchMesh FrontMesher::run(const std::vector<PatchLoop>& loops) {
             local_remesh(top.edge);
     }
     FM_CHECK(front_size_ == 0);
-    static const char* const reasons[10] = {"normal", "side", "sector", "mesh_edge", "sector_apex",
+    static const char* const reasons[11] = {"normal", "side", "sector", "mesh_edge", "sector_apex",
                                             "point_inside", "crossing", "projection",
-                                            "near_point", "near_edge"};
-    for (int i = 0; i < 10; ++i)
+                                            "near_point", "near_edge", "crossing_3d"};
+    for (int i = 0; i < 11; ++i)
         ctx_.add(std::string("remesh.front_rejected_") + reasons[i], static_cast<double>(why_[i]));
     ctx_.add("remesh.front_local_remeshings", static_cast<double>(remeshings_));
+    ctx_.add("remesh.front_closed_loops", static_cast<double>(closed_loops_));
     ctx_.add("remesh.front_steps", static_cast<double>(steps));
 
     if (params_.smoothing_iterations > 0) smooth();
@@ -810,8 +1031,26 @@ PatchMesh triangulate_patch(const BackgroundPatch& patch, const std::vector<Patc
         FM_THROW(InputError, "remesh: max_local_remesh must be at least 1");
     if (params.smoothing_iterations < 0)
         FM_THROW(InputError, "remesh: smoothing_iterations must not be negative");
-    FrontMesher mesher(patch, size, params, ctx);
-    return mesher.run(loops);
+    if (params.attempts < 1) FM_THROW(InputError, "remesh: attempts must be at least 1");
+    for (int attempt = 0;; ++attempt) {
+        const double scale = std::pow(0.85, attempt);
+        const SizeFunction scaled = [&size, scale](const Eigen::Vector3d& p, std::int32_t face) {
+            return scale * size(p, face);
+        };
+        try {
+            core::StageContext sub;
+            FrontMesher mesher(patch, attempt == 0 ? size : scaled, params, sub, attempt);
+            PatchMesh mesh = mesher.run(loops);
+            for (const auto& [name, value] : sub.counters()) ctx.add(name, value);
+            for (const auto& w : sub.warnings()) ctx.warn(w);
+            ctx.add("remesh.patch_retries", attempt);
+            return mesh;
+        } catch (const core::MeshingError& e) {
+            if (attempt + 1 >= params.attempts) throw;
+            ctx.warn(std::string(e.what()) + "; the patch starts again with sizes x " +
+                     std::to_string(std::pow(0.85, attempt + 1)));
+        }
+    }
 }
 
 }  // namespace frontmesh::surface

@@ -93,6 +93,9 @@ struct FrontParams {
     /// region grows with each). The whole patch also stops after area / (0.43 h_min^2) / 20
     /// + 1000 remeshings or 20x that many steps.
     int max_local_remesh = 50;
+    /// Attempts per patch: when the front cannot be closed, the patch starts again with the
+    /// sizes scaled by 0.85 (and, without loops, from another seed face). >= 1.
+    int attempts = 4;
 };
 
 /// The triangulated patch. points: the loop points first (loops in input order, each in

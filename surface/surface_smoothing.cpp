@@ -160,13 +160,16 @@ public:
             const std::array<std::int32_t, 3> nf{c, a, d}, ng{d, b, c};
             const Eigen::Vector3d of = raw_normal(s_, tf).normalized();
             const Eigen::Vector3d og = raw_normal(s_, tg).normalized();
-            if (of.dot(og) < cos_flat_) continue;
+            const double before = std::min(min_angle(tf), min_angle(tg));
+            // A pair holding a poor face (smallest angle under 20 degrees) may flip over a
+            // bend of up to 30 degrees: better a slightly coarser bend than the poor face.
+            const double cos_flat = before < 20.0 ? std::min(cos_flat_, kCosBadFlat) : cos_flat_;
+            if (of.dot(og) < cos_flat) continue;
             const Eigen::Vector3d n1 = raw_normal(s_, nf), n2 = raw_normal(s_, ng);
             if (n1.norm() <= 0.0 || n2.norm() <= 0.0) continue;
             const Eigen::Vector3d u1 = n1.normalized(), u2 = n2.normalized();
             const Eigen::Vector3d mean = of + og;
-            if (u1.dot(u2) < cos_flat_ || u1.dot(mean) <= 0.0 || u2.dot(mean) <= 0.0) continue;
-            const double before = std::min(min_angle(tf), min_angle(tg));
+            if (u1.dot(u2) < cos_flat || u1.dot(mean) <= 0.0 || u2.dot(mean) <= 0.0) continue;
             const double after = std::min(min_angle(nf), min_angle(ng));
             if (!(after > before + 1e-6)) continue;
             s_.faces[std::size_t(f)] = nf;
@@ -328,6 +331,7 @@ private:
     std::vector<Eigen::Vector3d> normals_;
     std::vector<std::pair<std::int32_t, std::int32_t>> ring_next_;
     double cos_turn_ = 0.0, cos_flat_ = 1.0;
+    static constexpr double kCosBadFlat = 0.8660254037844387;  // cos 30 degrees
 };
 
 }  // namespace

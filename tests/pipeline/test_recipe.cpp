@@ -86,9 +86,17 @@ TEST_CASE("recipe errors: one line naming file, line and key", "[pipeline]") {
     SECTION("YAML syntax") {
         CHECK_THAT(error_of("input:\n  image: [ball.mha\n"), Catch::Contains("YAML syntax error"));
     }
-    SECTION("a stage that does not exist yet") {
-        CHECK_THAT(error_of("input:\n  image: ball.mha\nremesh:\n  edge_length: 2\n"),
-                   Catch::Contains("remesh.edge_length") && Catch::Contains("not available"));
+    SECTION("remesh keys are typed and range-checked") {
+        CHECK_THAT(error_of("input:\n  image: ball.mha\nremesh:\n  edge_length: -2\n"),
+                   Catch::Contains("r.yaml:4") && Catch::Contains("remesh.edge_length"));
+        CHECK_THAT(error_of("input:\n  image: ball.mha\nremesh:\n  gradation: 0.5\n"),
+                   Catch::Contains("remesh.gradation"));
+        CHECK_THAT(error_of("input:\n  image: ball.mha\nremesh:\n  label_edge_length: [1, 2]\n"),
+                   Catch::Contains("remesh.label_edge_length") && Catch::Contains("mapping"));
+        CHECK_THAT(error_of("input:\n  image: ball.mha\nremesh:\n  edge_lenght: 2\n"),
+                   Catch::Contains("did you mean 'remesh.edge_length'"));
+        CHECK_THAT(error_of("input:\n  image: ball.mha\nextract:\n  closing_voxels: 11\n"),
+                   Catch::Contains("extract.closing_voxels"));
     }
     SECTION("volume stage keys are range-checked with their place") {
         CHECK_THAT(error_of("input:\n  image: ball.mha\ntetra:\n  stretching: 1.0\n"),
@@ -118,7 +126,7 @@ TEST_CASE("configs/reference.yaml documents every key with its default, and is v
         const std::string leaf = key.substr(key.find('.') + 1);
         if (key == "input.image") continue;  // the reference names an example image
         // "  leaf: default" somewhere below its section.
-        const std::regex line("\\n  " + leaf + ": " + std::regex_replace(value, std::regex("[.\\[\\]]"), "\\$&") + "\\s");
+        const std::regex line("\\n  " + leaf + ": " + std::regex_replace(value, std::regex("[.\\[\\]{}]"), "\\$&") + "\\s");
         CHECK(std::regex_search(text, line));
     }
     CHECK_NOTHROW(pipeline::load_recipe(path));

@@ -10,8 +10,11 @@
 #include <catch2/catch.hpp>
 
 #include "io/image_reader.h"
+#include "io/mesh_io.h"
+#include "pipeline/core/quality.h"
 #include "pipeline/core/self_intersection.h"
 #include "surface/extract.h"
+#include "surface/morphology.h"
 #include "surface/front_triangulate.h"
 #include "surface/remesh.h"
 #include "surface/repair.h"
@@ -55,6 +58,19 @@ void report_and_check(const std::string& what, const core::SurfaceNetwork& bg,
         const double v0 = core::enclosed_volume(bg, c.region);
         worst_volume = std::max(worst_volume, std::abs(c.volume - v0) / v0);
     }
+    {
+        // Where the worst face is, for diagnosis.
+        std::size_t worst_face = 0;
+        double worst_angle = 180.0;
+        for (std::size_t f = 0; f < s.face_count(); ++f) {
+            const auto& t = s.faces[f];
+            const double a = core::triangle_min_angle_deg(s.point(t[0]), s.point(t[1]), s.point(t[2]));
+            if (a < worst_angle) worst_angle = a, worst_face = f;
+        }
+        const auto& t = s.faces[worst_face];
+        std::cout << "  worst face " << worst_face << " at " << ((s.point(t[0]) + s.point(t[1]) + s.point(t[2])) / 3.0).transpose()
+                  << ", min angle " << worst_angle << "\n";
+    }
     std::cout << "  worst region volume change " << 100 * worst_volume << " %\n";
     CHECK(core::self_intersections(s, 1).empty());
     CHECK(q.min_angle_deg >= 20.0);
@@ -77,30 +93,39 @@ core::SurfaceNetwork background_from(const std::string& path, std::optional<doub
     io::ImageReadOptions ro;
     ro.threshold = threshold;
     ro.frame = frame;
-    const auto image = io::read_label_image(path, ro);
+    auto image = io::read_label_image(path, ro);
+    const int opening = static_cast<int>(env_or("FRONTMESH_REMESH_OPENING", threshold ? 1 : 0));
+    const int closing = static_cast<int>(env_or("FRONTMESH_REMESH_CLOSING", threshold ? 1 : 0));
+    if (closing > 0)
+        std::cout << "closing filled " << surface::close_object(image, closing) << " voxels\n";
+    if (opening > 0)
+        std::cout << "opening removed " << surface::open_object(image, opening) << " voxels\n";
     core::StageContext ctx;
     surface::ExtractParams ep;
     ep.blur_sigma_mm = blur;
-    return surface::repair(surface::extract(image, ep, ctx), {}, ctx);
+    surface::RepairParams rp;
+    rp.min_component_volume_mm3 = env_or("FRONTMESH_REMESH_MIN_VOLUME", threshold ? 30.0 : 1.0);
+    return surface::repair(surface::extract(image, ep, ctx), rp, ctx);
 }
 
 }  // namespace
 
-// Hidden ([.]): the acceptance runs of issue 3. They do not pass yet: the advancing-front
-// triangulator stops with a MeshingError in thin fins of the brain and in AAL patches that
-// touch themselves (see the session notes). Run them by name to measure progress.
+// Hidden ([.]): the acceptance runs of issue 3, on real data (tens of seconds each). Run them
+// by name; they print the figures of the acceptance.
 TEST_CASE("remesh the Colin27 brain at about 80k triangles", "[remesh][e2e][.]") {
     const std::string path = "/usr/share/mricron/templates/ch2bet.nii.gz";
     if (!std::filesystem::exists(path)) return;
-    // As examples/colin27-brain.yaml: threshold 30, 1 mm blur.
-    const auto bg = background_from(path, 30.0, 1.0, core::Frame::Lps);
+    // As examples/colin27-brain.yaml: threshold 30, closing and opening of one voxel, 1.5 mm
+    // blur (DESIGN-NOTES §2), specks under 30 mm^3 dropped, h = 1.55 mm.
+    const auto bg = background_from(path, 30.0, env_or("FRONTMESH_REMESH_BLUR", 1.5), core::Frame::Lps);
     surface::RemeshParams params;
-    params.edge_length = env_or("FRONTMESH_REMESH_H", 1.75);
+    params.edge_length = env_or("FRONTMESH_REMESH_H", 1.55);
     core::StageContext ctx;
     const auto t0 = std::chrono::steady_clock::now();
     const auto r = surface::remesh(bg, params, ctx);
     const double seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    if (const char* out = std::getenv("FRONTMESH_REMESH_OUT")) io::write_surface_vtu(r.surface, out, {});
     report_and_check("Colin27", bg, r, seconds, params.edge_length, ctx);
     CHECK(r.surface.face_count() > 60000);
     CHECK(r.surface.face_count() < 100000);
