@@ -270,6 +270,15 @@ private:
     void gather(const Eigen::Vector3d& center, double radius, const Frame& fr);
     void local_remesh(std::int32_t e);
     bool close_small_loop(std::int32_t e);
+    // Local remeshings recorded within two edge lengths of edge e.
+    int remeshings_near(std::int32_t e) {
+        const std::int32_t a = edges_[static_cast<std::size_t>(e)].a, b = edges_[static_cast<std::size_t>(e)].b;
+        const Eigen::Vector3d centre = 0.5 * (xyz_[static_cast<std::size_t>(a)] + xyz_[static_cast<std::size_t>(b)]);
+        remesh_sites_.query_sphere(centre, 2.0 * (xyz_[static_cast<std::size_t>(b)] - xyz_[static_cast<std::size_t>(a)]).norm(),
+                                   scratch_ids_);
+        return static_cast<int>(scratch_ids_.size());
+    }
+    static constexpr int kLastResortAfter = 8;
     void dump_near(const Eigen::Vector3d& centre, double radius) const;
     void seed();
     void smooth();
@@ -296,6 +305,7 @@ private:
     std::int64_t front_size_ = 0, live_triangles_ = 0;
     std::int64_t remeshings_ = 0;
     std::int64_t closed_loops_ = 0;
+    std::int64_t last_resort_ = 0;  // triangles made by the last-resort rules
     std::int64_t why_[11] = {};  // rejected candidates by test, for the counters
     // Smallest angle (radians) a new triangle may leave between itself and a front edge at
     // a shared point (the paper's 5-degree edge-face angle test, stricter on a first try).
@@ -567,10 +577,12 @@ bool FrontMesher::advance(std::int32_t e, int fails) {
     gather(fr.origin, search, fr);
 
     // Candidates: front points near the ideal apex and the front neighbours of a and b.
-    const double min_cos = fails == 0 ? 0.3 : 0.05;
-    min_gap_ = (fails == 0 ? 12.0 : 4.0) * pi / 180.0;
-    const double max_eta = fails == 0 ? 0.45 : 0.85;
-    const double radius_c = (fails == 0 ? 0.75 : 1.2) * s;
+    // fails 0: strict; 1: relaxed; 2: last resort where local remeshing keeps failing (any
+    // shape that passes the validity tests; the smoothing after the front mends it).
+    const double min_cos = fails == 0 ? 0.3 : fails == 1 ? 0.05 : 0.0;
+    min_gap_ = (fails == 0 ? 12.0 : fails == 1 ? 4.0 : 0.5) * pi / 180.0;
+    const double max_eta = fails == 0 ? 0.45 : fails == 1 ? 0.85 : 0.99;
+    const double radius_c = (fails == 0 ? 0.75 : fails == 1 ? 1.2 : 2.0) * s;
     std::vector<Candidate> candidates;
     auto consider = [&](std::int32_t q) {
         if (q == a || q == b) return;
@@ -639,7 +651,11 @@ bool FrontMesher::advance(std::int32_t e, int fails) {
         const BackgroundPatch::Projection pr =
             g == 1.0 ? p_ideal : patch_.project(target, face_[static_cast<std::size_t>(a)]);
         const Eigen::Vector3d nc = patch_.smooth_normal(pr.face);
-        if (nc.dot(fr.n) < 0.5 || pr.distance > 0.5 * g * height) { ++why_[7]; continue; }
+        const bool last = fails >= 2;
+        if (nc.dot(fr.n) < (last ? 0.0 : 0.5) || pr.distance > (last ? 1.0 : 0.5) * g * height) {
+            ++why_[7];
+            continue;
+        }
         // Not too close to the front: a point there should have been a candidate.
         const P2 pc = fr.to2d(pr.point);
         bool clear = true;
@@ -937,6 +953,10 @@ PatchMesh FrontMesher::run(const std::vector<PatchLoop>& loops) {
             queue_.push({again.fails, top.length, top.edge});
         else if (close_small_loop(top.edge))
             continue;
+        else if (remeshings_near(top.edge) >= kLastResortAfter && advance(top.edge, 2)) {
+            ++last_resort_;
+            continue;
+        }
         else if (remeshings_ >= max_remeshings)
             FM_THROW(MeshingError, "remesh: the front stalls near " +
                                        where(xyz_[static_cast<std::size_t>(fe.a)]) + " (" +
@@ -954,6 +974,7 @@ PatchMesh FrontMesher::run(const std::vector<PatchLoop>& loops) {
         ctx_.add(std::string("remesh.front_rejected_") + reasons[i], static_cast<double>(why_[i]));
     ctx_.add("remesh.front_local_remeshings", static_cast<double>(remeshings_));
     ctx_.add("remesh.front_closed_loops", static_cast<double>(closed_loops_));
+    ctx_.add("remesh.front_last_resort_triangles", static_cast<double>(last_resort_));
     ctx_.add("remesh.front_steps", static_cast<double>(steps));
 
     if (params_.smoothing_iterations > 0) smooth();
