@@ -117,17 +117,17 @@ SheetDistances sheet_distances(const core::SurfaceNetwork& s,
     out.outside.assign(n, kInf);
     if (n == 0) return out;
 
-    // Face centroids in a 3-D ADT (much cheaper queries than 6-D boxes); a face meets a ray
-    // segment of length `limit` from o only if its centroid lies within limit + its radius.
-    core::Adt tree(bounding_box(s), core::AdtItems::points);
+    // Face boxes in an ADT: each vertex queries the box of its ray segments only (two sides
+    // of each normal), far fewer faces than a ball of the ray's length around it.
+    core::Adt tree(bounding_box(s), core::AdtItems::boxes);
     tree.reserve(static_cast<std::int32_t>(s.face_count()));
     std::vector<Eigen::Vector3d> normals(s.face_count());
-    double face_radius = 0.0;
     for (std::size_t f = 0; f < s.face_count(); ++f) {
         const auto& t = s.faces[f];
-        const Eigen::Vector3d c = (s.point(t[0]) + s.point(t[1]) + s.point(t[2])) / 3.0;
-        for (const auto v : t) face_radius = std::max(face_radius, (s.point(v) - c).norm());
-        tree.insert(static_cast<std::int32_t>(f), c);
+        core::AdtBox box = core::AdtBox::of_point(s.point(t[0]));
+        box.extend(s.point(t[1]));
+        box.extend(s.point(t[2]));
+        tree.insert(static_cast<std::int32_t>(f), box);
         normals[f] = (s.point(t[1]) - s.point(t[0])).cross(s.point(t[2]) - s.point(t[0]));
     }
     tree.compact();
@@ -155,8 +155,15 @@ SheetDistances sheet_distances(const core::SurfaceNetwork& s,
                     it->second += normals[f];
             }
             const Eigen::Vector3d o = s.point(static_cast<std::int32_t>(v));
-            // One query for every ray of this vertex: faces within reach of o.
-            tree.query_sphere(o, limit + face_radius, found);
+            // One query for every ray of this vertex: faces whose box meets the rays' box.
+            core::AdtBox rays = core::AdtBox::of_point(o);
+            for (const auto& group : groups) {
+                if (group.second.norm() <= 0.0) continue;
+                const Eigen::Vector3d d = limit * group.second.normalized();
+                rays.extend(o + d);
+                rays.extend(o - d);
+            }
+            tree.query_box(rays, found);
             for (const auto& [key, sum] : groups) {
                 if (sum.norm() <= 0.0) continue;
                 const Eigen::Vector3d nrm = sum.normalized();
