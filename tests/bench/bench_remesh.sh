@@ -4,7 +4,7 @@
 #
 # Usage: tests/bench/bench_remesh.sh BUILD_DIR [H_MM]
 #   BUILD_DIR  a Release build holding pipeline/frontmesh (and tests/test_surface)
-#   H_MM       remesh.edge_length, default 1.75 (about 80k triangles on the brain)
+#   H_MM       remesh.edge_length, default 1.55 (about 80k triangles on the brain)
 #
 # With the stage wired into the runner it times
 #   frontmesh run examples/colin27-brain.yaml --from remesh --until remesh --threads N
@@ -13,7 +13,7 @@
 # process time is image reading, extraction, repair and the acceptance checks).
 set -euo pipefail
 build=${1:?usage: bench_remesh.sh BUILD_DIR [H_MM]}
-h=${2:-1.75}
+h=${2:-1.55}
 src=$(cd "$(dirname "$0")/../.." && pwd)
 out=${TMPDIR:-/tmp}/bench-remesh
 mkdir -p "$out"
