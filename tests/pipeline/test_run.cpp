@@ -206,3 +206,42 @@ TEST_CASE("a surface input enters at repair and keeps its regions", "[pipeline]"
     CHECK(bad.exit_code == 2);
     CHECK_THAT(bad.err, Catch::Contains("broken.off"));
 }
+
+TEST_CASE("remesh stage: 03-remesh.vtu with eta, min_angle, regions and target_size; quality", "[pipeline]") {
+    const std::string dir = phantom_run_dir("run_remesh");
+    const auto r = run_frontmesh("run recipe.yaml --quiet --until remesh --set remesh.edge_length=1.5", dir);
+    INFO(r.err);
+    REQUIRE(r.exit_code == 0);
+    const fs::path out = fs::path(dir) / "out";
+    const std::string vtu = slurp(out / "checkpoints/03-remesh.vtu");
+    for (const char* name : {"Name=\"eta\"", "Name=\"min_angle\"", "Name=\"region_in\"", "Name=\"region_out\"",
+                             "Name=\"target_size\""})
+        CHECK_THAT(vtu, Catch::Contains(name));
+    CHECK(fs::exists(out / "surface.vtu"));
+    // The figures of the acceptance are in the summary: every region closed and oriented,
+    // no face under 20 degrees, volumes kept.
+    const std::string summary = slurp(out / "summary.json");
+    CHECK_THAT(summary, Catch::Contains("\"name\": \"remesh\""));
+    const std::smatch m = [&] {
+        std::smatch found;
+        std::regex_search(summary, found, std::regex("\"remesh.min_angle_deg\": ([0-9.eE+-]+)"));
+        return found;
+    }();
+    REQUIRE(m.size() == 2);
+    CHECK(std::stod(m[1]) >= 20.0);
+    std::smatch v;
+    std::string rest = summary;
+    int regions = 0;
+    while (std::regex_search(rest, v, std::regex("\"remesh.volume_change_percent.region_[0-9]+\": ([0-9.eE+-]+)"))) {
+        CHECK(std::abs(std::stod(v[1])) <= 0.5);
+        ++regions;
+        rest = v.suffix();
+    }
+    CHECK(regions == 3);
+    // Nothing is rewritten when the remesh parameters do not change; a new h runs it again.
+    const auto again = run_frontmesh("run recipe.yaml --until remesh --set remesh.edge_length=1.5", dir);
+    CHECK_THAT(again.err, Catch::Contains("up to date"));
+    const auto other = run_frontmesh("run recipe.yaml --until remesh --set remesh.edge_length=2", dir);
+    CHECK(other.exit_code == 0);
+    CHECK_THAT(other.err, Catch::Contains("[3/3] remesh"));
+}
