@@ -18,6 +18,7 @@
 #include "surface/front_triangulate.h"
 #include "surface/remesh.h"
 #include "surface/repair.h"
+#include "tests/fixtures/phantoms.h"
 
 using namespace frontmesh;
 
@@ -144,4 +145,22 @@ TEST_CASE("remesh the AAL atlas: 116 regions, interfaces shared", "[remesh][e2e]
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     report_and_check("AAL", bg, r, seconds, ctx.counters().at("remesh.edge_length_mm"), ctx);
     CHECK(core::region_labels(r.surface).size() == 116);
+}
+
+TEST_CASE("remesh the nested three-region phantom", "[remesh][e2e][.]") {
+    // The three nested ellipsoids (brain / CSF / skull) at full size, contoured by surface
+    // nets: two interfaces, one outer boundary.
+    const core::LabelImage image = fixtures::nested_ellipsoids_image(1.0, 1.0);
+    core::StageContext ectx;
+    const auto bg = surface::repair(surface::extract(image, {}, ectx), {}, ectx);
+    surface::RemeshParams params;
+    params.edge_length = env_or("FRONTMESH_REMESH_PHANTOM_H", 1.5);
+    core::StageContext ctx;
+    const auto t0 = std::chrono::steady_clock::now();
+    const auto r = surface::remesh(bg, params, ctx);
+    const double seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    report_and_check("phantom", bg, r, seconds, params.edge_length, ctx);
+    CHECK(core::region_labels(r.surface).size() == 3);
+    CHECK(surface::edge_length_fraction(r.surface, 0.7 * params.edge_length, 1.4 * params.edge_length) >= 0.95);
 }
