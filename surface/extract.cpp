@@ -73,136 +73,128 @@ struct Grid {
     std::size_t index(int i, int j, int k) const {
         return (static_cast<std::size_t>(k) * n[1] + j) * n[0] + i;
     }
+    bool contains(int i, int j, int k) const {
+        return i >= 0 && j >= 0 && k >= 0 && i < n[0] && j < n[1] && k < n[2];
+    }
+    // The eight voxels of the block whose lowest corner is voxel (i, j, k), by octant.
+    std::array<std::size_t, 8> block(int i, int j, int k) const {
+        std::array<std::size_t, 8> at;
+        for (int o = 0; o < 8; ++o)
+            at[o] = index(i + kOctant[o][0], j + kOctant[o][1], k + kOctant[o][2]);
+        return at;
+    }
 };
 
-// Edits single voxels until every non-zero label's boundary is a 2-manifold. The label
-// that is not manifold in a block grows: it takes the voxel bridging its pieces, or the
-// smallest piece of the rest that it encloses. Returns the number of voxels changed.
-// True when `label` is manifold in every block holding voxel (i, j, k).
-bool is_manifold_around(const Grid& grid, int i, int j, int k, Label label) {
+// The regions whose boundaries the clean-up makes 2-manifolds: every non-zero label, and
+// the union of all of them against the outside (label 0), named kUnion. Without the union,
+// two labels meeting the outside along one voxel edge (A, 0, B, 0 around it) or at one
+// corner leave the outer boundary of the mesh non-manifold although each label is fine.
+constexpr Label kUnion = 0;
+
+unsigned region_mask(const Grid& grid, const std::array<std::size_t, 8>& at, Label region) {
+    unsigned m = 0;
+    for (int o = 0; o < 8; ++o) {
+        const Label x = grid.labels[at[o]];
+        m |= ((region == kUnion ? x != 0 : x == region) ? 1u : 0u) << o;
+    }
+    return m;
+}
+
+// Calls f(bi, bj, bk) for every block (given by its lowest voxel) that holds voxel (i, j, k).
+template <class F>
+void for_blocks_around(const Grid& grid, int i, int j, int k, F&& f) {
     for (int dk = -1; dk <= 0; ++dk)
         for (int dj = -1; dj <= 0; ++dj)
             for (int di = -1; di <= 0; ++di) {
                 const int bi = i + di, bj = j + dj, bk = k + dk;
-                if (bi < 0 || bj < 0 || bk < 0 || bi + 1 >= grid.n[0] || bj + 1 >= grid.n[1] || bk + 1 >= grid.n[2])
+                if (bi < 0 || bj < 0 || bk < 0 || bi + 1 >= grid.n[0] || bj + 1 >= grid.n[1] ||
+                    bk + 1 >= grid.n[2])
                     continue;
-                unsigned m = 0;
-                for (int o = 0; o < 8; ++o)
-                    m |= (grid.labels[grid.index(bi + kOctant[o][0], bj + kOctant[o][1], bk + kOctant[o][2])] == label ? 1u : 0u) << o;
-                if (!is_manifold_block(m)) return false;
+                f(bi, bj, bk);
             }
-    return true;
 }
 
-// Second phase, which always ends: a label pinched in a block gives up one voxel there, to
-// the most frequent face neighbour label that stays manifold around it, else to the
-// outside. A label only loses voxels on its own account, so the number of voxels of the
-// pinched labels falls with every change.
-std::size_t shrink_pinches(Grid grid) {
-    std::size_t changed = 0;
-    for (bool again = true; again;) {
-        again = false;
-        for (int k = 0; k + 1 < grid.n[2]; ++k)
-            for (int j = 0; j + 1 < grid.n[1]; ++j)
-                for (int i = 0; i + 1 < grid.n[0]; ++i) {
-                    for (int attempt = 0; attempt < 8; ++attempt) {
-                        std::array<std::size_t, 8> at;
-                        for (int o = 0; o < 8; ++o)
-                            at[o] = grid.index(i + kOctant[o][0], j + kOctant[o][1], k + kOctant[o][2]);
-                        Label bad = 0;
-                        unsigned mask = 0;
-                        for (int o = 0; o < 8 && bad == 0; ++o) {
-                            const Label x = grid.labels[at[o]];
-                            if (x == 0) continue;
-                            unsigned m = 0;
-                            for (int q = 0; q < 8; ++q) m |= (grid.labels[at[q]] == x ? 1u : 0u) << q;
-                            if (!is_manifold_block(m)) bad = x, mask = m;
-                        }
-                        if (bad == 0) break;
-                        // The voxel of `bad` whose removal mends the block, else the one with
-                        // fewest neighbours of its own label.
-                        int best = -1, best_score = 1 << 30;
-                        for (int o = 0; o < 8; ++o) {
-                            if (!(mask >> o & 1u)) continue;
-                            int own = 0;
-                            for (int bit = 0; bit < 3; ++bit) own += mask >> (o ^ (1 << bit)) & 1u;
-                            const int score = (is_manifold_block(mask & ~(1u << o)) ? 0 : 100) + own;
-                            if (score < best_score) best = o, best_score = score;
-                        }
-                        const int vi = i + kOctant[best][0], vj = j + kOctant[best][1], vk = k + kOctant[best][2];
-                        std::map<Label, int> votes;
-                        const int step[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
-                        for (const auto& d : step) {
-                            const int a = vi + d[0], b = vj + d[1], c = vk + d[2];
-                            if (a < 0 || b < 0 || c < 0 || a >= grid.n[0] || b >= grid.n[1] || c >= grid.n[2]) continue;
-                            const Label l = grid.labels[grid.index(a, b, c)];
-                            if (l != bad && l != 0) ++votes[l];
-                        }
-                        std::vector<std::pair<int, Label>> order;
-                        for (const auto& [l, v] : votes) order.push_back({-v, l});
-                        std::sort(order.begin(), order.end());
-                        Label target = 0;
-                        const std::size_t voxel = grid.index(vi, vj, vk);
-                        for (const auto& [negative_votes, l] : order) {
-                            grid.labels[voxel] = l;
-                            if (is_manifold_around(grid, vi, vj, vk, l)) {
-                                target = l;
-                                break;
-                            }
-                        }
-                        grid.labels[voxel] = target;
-                        ++changed;
-                        again = true;
-                    }
-                }
+// Number of blocks holding voxel (i, j, k) in which `region` is not manifold (0 to 8).
+int pinches_around(const Grid& grid, int i, int j, int k, Label region) {
+    int pinches = 0;
+    for_blocks_around(grid, i, j, k, [&](int bi, int bj, int bk) {
+        pinches += is_manifold_block(region_mask(grid, grid.block(bi, bj, bk), region)) ? 0 : 1;
+    });
+    return pinches;
+}
+
+// The first region (smallest non-zero label, then the union) that is not manifold in the
+// block; returns false when all are.
+bool find_pinched(const Grid& grid, const std::array<std::size_t, 8>& at, Label& region,
+                  unsigned& mask) {
+    bool found = false;
+    for (int o = 0; o < 8; ++o) {
+        const Label x = grid.labels[at[o]];
+        if (x == 0 || (found && x >= region)) continue;
+        const unsigned m = region_mask(grid, at, x);
+        if (!is_manifold_block(m)) region = x, mask = m, found = true;
     }
-    return changed;
+    if (found) return true;
+    mask = region_mask(grid, at, kUnion);
+    region = kUnion;
+    return !is_manifold_block(mask);
 }
 
+// The non-zero label an outside voxel (octant o of the block) takes when the union grows
+// over it: a label of its face neighbours in the block that stays manifold in the block,
+// then the one with most such neighbours, then the smallest.
+Label label_joining_union(const Grid& grid, const std::array<std::size_t, 8>& at, int o) {
+    Label best = 0;
+    int best_score = 1 << 30;
+    for (int bit = 0; bit < 3; ++bit) {
+        const Label l = grid.labels[at[o ^ (1 << bit)]];
+        if (l == 0) continue;
+        const unsigned m = region_mask(grid, at, l) | 1u << o;
+        int own = 0;
+        for (int b = 0; b < 3; ++b) own += m >> (o ^ (1 << b)) & 1u;
+        const int score = (is_manifold_block(m) ? 0 : 100) - own;
+        if (score < best_score || (score == best_score && l < best)) best = l, best_score = score;
+    }
+    return best;
+}
+
+// First phase: the region that is not manifold in a block grows there. It takes the voxel
+// bridging its pieces, or the smallest piece of the rest that it encloses; when the region
+// is the union, each voxel it takes from the outside gets a neighbouring label. Not bound
+// to end (a growth can pinch another label), hence the pass limit and the second phase.
 std::size_t make_boundaries_manifold(Grid grid, int max_passes, bool& converged) {
     std::size_t changed = 0;
     converged = false;
+    const auto& connected = connectivity_table();
     for (int pass = 0; pass < max_passes; ++pass) {
         std::size_t changed_this_pass = 0;
         for (int k = 0; k + 1 < grid.n[2]; ++k)
             for (int j = 0; j + 1 < grid.n[1]; ++j)
                 for (int i = 0; i + 1 < grid.n[0]; ++i) {
-                    std::array<std::size_t, 8> at;
-                    for (int o = 0; o < 8; ++o)
-                        at[o] = grid.index(i + kOctant[o][0], j + kOctant[o][1], k + kOctant[o][2]);
+                    const auto at = grid.block(i, j, k);
                     const Label first = grid.labels[at[0]];
                     bool uniform = true;
                     for (int o = 1; o < 8 && uniform; ++o) uniform = grid.labels[at[o]] == first;
                     if (uniform) continue;
                     for (int attempt = 0; attempt < 16; ++attempt) {
-                        // Find the smallest non-zero label whose boundary is pinched here.
                         Label bad = 0;
                         unsigned mask = 0;
-                        for (int o = 0; o < 8; ++o) {
-                            const Label x = grid.labels[at[o]];
-                            if (x == 0 || (bad != 0 && x >= bad)) continue;
-                            unsigned m = 0;
-                            for (int q = 0; q < 8; ++q) m |= (grid.labels[at[q]] == x ? 1u : 0u) << q;
-                            if (!is_manifold_block(m)) {
-                                bad = x;
-                                mask = m;
-                            }
-                        }
-                        if (bad == 0) break;
-                        if (!connectivity_table()[mask]) {
-                            // Bridge: the other octant with most neighbours of `bad`.
+                        if (!find_pinched(grid, at, bad, mask)) break;
+                        unsigned take = 0;  // octants the region takes
+                        if (!connected[mask]) {
+                            // Bridge: the other octant with most neighbours in the region.
                             int best = -1, best_count = -1;
                             for (int o = 0; o < 8; ++o) {
                                 if (mask >> o & 1u) continue;
                                 int count = 0;
-                                for (int bit = 0; bit < 3; ++bit) count += mask >> (o ^ (1 << bit)) & 1u;
+                                for (int bit = 0; bit < 3; ++bit)
+                                    count += mask >> (o ^ (1 << bit)) & 1u;
                                 if (count > best_count) best = o, best_count = count;
                             }
-                            grid.labels[at[best]] = bad;
-                            ++changed_this_pass;
+                            take = 1u << best;
                         } else {
                             // Fill the smallest face-connected piece of the rest.
-                            unsigned rest = ~mask & 255u, smallest = 0;
+                            unsigned rest = ~mask & 255u;
                             while (rest) {
                                 unsigned piece = 1u << std::countr_zero(rest);
                                 for (bool grew = true; grew;) {
@@ -211,14 +203,34 @@ std::size_t make_boundaries_manifold(Grid grid, int max_passes, bool& converged)
                                         if (piece >> o & 1u)
                                             for (int bit = 0; bit < 3; ++bit) {
                                                 const int n = o ^ (1 << bit);
-                                                if ((rest >> n & 1u) && !(piece >> n & 1u)) piece |= 1u << n, grew = true;
+                                                if ((rest >> n & 1u) && !(piece >> n & 1u))
+                                                    piece |= 1u << n, grew = true;
                                             }
                                 }
-                                if (smallest == 0 || std::popcount(piece) < std::popcount(smallest)) smallest = piece;
+                                if (take == 0 || std::popcount(piece) < std::popcount(take))
+                                    take = piece;
                                 rest &= ~piece;
                             }
+                        }
+                        if (bad != kUnion) {
                             for (int o = 0; o < 8; ++o)
-                                if (smallest >> o & 1u) grid.labels[at[o]] = bad, ++changed_this_pass;
+                                if (take >> o & 1u) grid.labels[at[o]] = bad, ++changed_this_pass;
+                            continue;
+                        }
+                        // The union grows over outside voxels, each next to one already in it
+                        // (the union is face-connected and non-empty in the block, so every
+                        // piece of the rest touches it).
+                        for (bool grew = true; take && grew;) {
+                            grew = false;
+                            for (int o = 0; o < 8; ++o) {
+                                if (!(take >> o & 1u)) continue;
+                                const Label l = label_joining_union(grid, at, o);
+                                if (l == 0) continue;
+                                grid.labels[at[o]] = l;
+                                take &= ~(1u << o);
+                                grew = true;
+                                ++changed_this_pass;
+                            }
                         }
                     }
                 }
@@ -227,6 +239,79 @@ std::size_t make_boundaries_manifold(Grid grid, int max_passes, bool& converged)
             converged = true;
             break;
         }
+    }
+    return changed;
+}
+
+// Second phase, which always ends: a region not manifold in a block gives up one voxel
+// there. A label gives it to a neighbouring label when that stays manifold around the voxel
+// and the blocks around the voxel count fewer pinches of the two labels than before; else,
+// and always for the union, the voxel goes to the outside. Each change thus lowers
+// (labelled voxels, pinches of labels summed over all blocks) in lexicographic order: the
+// first when a voxel goes outside, else the second with the first unchanged. Both are
+// non-negative integers, so the sweeps end, and they end only when every block is manifold
+// for every label and the union. Returns the number of voxels changed.
+std::size_t shrink_pinches(Grid grid, std::size_t& to_outside) {
+    std::size_t changed = 0;
+    to_outside = 0;
+    const int step[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+    for (bool again = true; again;) {
+        again = false;
+        for (int k = 0; k + 1 < grid.n[2]; ++k)
+            for (int j = 0; j + 1 < grid.n[1]; ++j)
+                for (int i = 0; i + 1 < grid.n[0]; ++i) {
+                    const auto at = grid.block(i, j, k);
+                    for (int attempt = 0; attempt < 8; ++attempt) {
+                        Label bad = 0;
+                        unsigned mask = 0;
+                        if (!find_pinched(grid, at, bad, mask)) break;
+                        // The voxel of `bad` whose removal mends the block, else the one with
+                        // fewest neighbours in the region.
+                        int best = -1, best_score = 1 << 30;
+                        for (int o = 0; o < 8; ++o) {
+                            if (!(mask >> o & 1u)) continue;
+                            int own = 0;
+                            for (int bit = 0; bit < 3; ++bit) own += mask >> (o ^ (1 << bit)) & 1u;
+                            const int score =
+                                (is_manifold_block(mask & ~(1u << o)) ? 0 : 100) + own;
+                            if (score < best_score) best = o, best_score = score;
+                        }
+                        const int vi = i + kOctant[best][0], vj = j + kOctant[best][1],
+                                  vk = k + kOctant[best][2];
+                        const std::size_t voxel = at[best];
+                        const Label own_label = grid.labels[voxel];
+                        Label target = 0;
+                        if (bad != kUnion) {
+                            std::map<Label, int> votes;
+                            for (const auto& d : step) {
+                                const int a = vi + d[0], b = vj + d[1], c = vk + d[2];
+                                if (!grid.contains(a, b, c)) continue;
+                                const Label l = grid.labels[grid.index(a, b, c)];
+                                if (l != bad && l != 0) ++votes[l];
+                            }
+                            std::vector<std::pair<int, Label>> order;
+                            for (const auto& [l, v] : votes) order.push_back({-v, l});
+                            std::sort(order.begin(), order.end());
+                            const int bad_before = pinches_around(grid, vi, vj, vk, bad);
+                            for (const auto& [negative_votes, l] : order) {
+                                const int l_before = pinches_around(grid, vi, vj, vk, l);
+                                grid.labels[voxel] = l;
+                                const bool accepted =
+                                    pinches_around(grid, vi, vj, vk, l) == 0 &&
+                                    pinches_around(grid, vi, vj, vk, bad) < bad_before + l_before;
+                                grid.labels[voxel] = own_label;
+                                if (accepted) {
+                                    target = l;
+                                    break;
+                                }
+                            }
+                        }
+                        grid.labels[voxel] = target;
+                        to_outside += target == 0 ? 1 : 0;
+                        ++changed;
+                        again = true;
+                    }
+                }
     }
     return changed;
 }
@@ -552,13 +637,17 @@ core::SurfaceNetwork extract(const core::LabelImage& image, const ExtractParams&
         bool converged = false;
         std::size_t changed = make_boundaries_manifold(Grid{image.dims, labels}, 6, converged);
         if (!converged) {
-            const std::size_t shrunk = shrink_pinches(Grid{image.dims, labels});
+            std::size_t to_outside = 0;
+            const std::size_t shrunk = shrink_pinches(Grid{image.dims, labels}, to_outside);
             ctx.count("extract.voxels_given_up_for_manifold", static_cast<double>(shrunk));
+            ctx.count("extract.voxels_given_to_outside_for_manifold", static_cast<double>(to_outside));
             changed += shrunk;
         }
         ctx.count("extract.voxels_changed_for_manifold", static_cast<double>(changed));
         if (changed > 0)
-            ctx.info("extract: " + std::to_string(changed) + " voxels relabelled so every region boundary is manifold");
+            ctx.info("extract: " + std::to_string(changed) +
+                     " voxels relabelled so every region boundary and the outer boundary of"
+                     " their union are manifold");
     }
     ctx.progress(0.2, "labels ready");
 

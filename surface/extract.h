@@ -26,8 +26,10 @@ struct ExtractParams {
     /// junction curves smooth along themselves, corners stay).
     int smoothing_iterations = 8;
     double smoothing_relaxation = 0.5;  ///< surface_nets: step of each pass, (0, 1]
-    /// Edit single voxels so that every region's boundary is a 2-manifold (two regions of
-    /// the same label touching only along a voxel edge or corner are joined). Counted.
+    /// Edit single voxels so that every region's boundary, and the outer boundary of the
+    /// union of all chosen labels, is a 2-manifold (two pieces of a label, or two labels
+    /// with the outside between them, touching only along a voxel edge or at a corner are
+    /// joined there, else one voxel is given up). Counted.
     bool manifold_cleanup = true;
 };
 

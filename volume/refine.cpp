@@ -148,6 +148,7 @@ core::TetMesh refine(const core::TetMesh& mesh, const RefineParams& params, core
     ctx.count("refine.sliver.flips", static_cast<double>(c.sliver_flips));
     ctx.count("refine.sliver.moves", static_cast<double>(c.sliver_moves));
     ctx.count("refine.sliver.removals", static_cast<double>(c.sliver_removals));
+    ctx.count("refine.sliver.insertions", static_cast<double>(c.sliver_insertions));
     record(ctx, "refine.final", figures);
     ctx.progress(1.0, "refine done");
     return topo.compact();

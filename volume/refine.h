@@ -52,11 +52,12 @@ void validate(const RefineParams& params);
 /// Improves `mesh` (returns an improved copy): boundary and interface triangles (mesh.faces)
 /// and the surface nodes [0, mesh.surface_vertices) never change (positions and faces preserved
 /// exactly), regions kept (a tet never crosses a region; flips only among tets of one region).
+/// The sliver pass may add interior nodes (Steiner nodes), numbered after the others.
 /// Records quality after each pass with ctx.count("refine.pass<k>.<figure>", v), k = 0 the
 /// input, <figure> one of tets, max_skewness, mean_skewness, skew_over_08, min_dihedral; plus
 /// per-step counts (refine.nodes_removed, refine.flips_3_2, refine.flips_2_3,
 /// refine.flips_4_4, refine.flips_n_m, refine.smoothing_moves, refine.flip_attempts,
-/// refine.edge_rings, refine.sliver.{flips,moves,removals}; refine.sliver.<figure> and
+/// refine.edge_rings, refine.sliver.{flips,moves,removals,insertions}; refine.sliver.<figure> and
 /// refine.final.<figure> after the sliver pass).
 /// Deterministic (sequential edits in id order).
 core::TetMesh refine(const core::TetMesh& mesh, const RefineParams& params, core::StageContext& ctx);

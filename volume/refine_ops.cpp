@@ -89,6 +89,10 @@ double tet_cost(const TetTopology& topo, const Tet& t, Objective objective) {
     const TetShape s = tet_shape(topo.xyz(t[0]), topo.xyz(t[1]), topo.xyz(t[2]), topo.xyz(t[3]),
                                  objective == Objective::Combined);
     if (objective == Objective::Skewness) return s.skewness;
+    // A tet on a poor input triangle keeps a skewness above 0.8 whatever is done around it (Eq. 1
+    // follows the triangle's circumradius); judged by its skewness it would block every change
+    // near it, so its dihedral angles alone count.
+    if (topo.has_poor_face(t)) return 1.0 - s.min_dihedral_deg / kRegularDihedralDeg;
     return std::max(s.skewness, 1.0 - s.min_dihedral_deg / kRegularDihedralDeg);
 }
 
@@ -190,6 +194,10 @@ void RefineOps::slivers() {
                     ++counts.sliver_removals;
                     done = true;
                 }
+            }
+            if (!done && insert_node(t, Objective::Combined)) {
+                ++counts.sliver_insertions;
+                done = true;
             }
             if (done) ++changed;
             else settled_[static_cast<std::size_t>(t)] = 1;
@@ -476,6 +484,218 @@ bool RefineOps::remove_edge(std::int32_t a, std::int32_t b, std::int32_t t, Obje
     if (n == 3) ++counts.flips_3_2;
     else if (n == 4) ++counts.flips_4_4;
     else ++counts.flips_n_m;
+    return true;
+}
+
+namespace {
+
+/// True when the triangles (each seen from inside) bound a topological sphere: every edge in
+/// exactly two of them, every vertex's triangles one fan, V - E + F = 2.
+bool is_sphere(const std::vector<std::array<std::int32_t, 3>>& faces) {
+    std::vector<std::pair<std::int32_t, std::int32_t>> edges;
+    std::vector<std::int32_t> vertices;
+    for (const auto& f : faces)
+        for (int i = 0; i < 3; ++i) {
+            const std::int32_t a = f[static_cast<std::size_t>(i)],
+                               b = f[static_cast<std::size_t>((i + 1) % 3)];
+            edges.emplace_back(std::min(a, b), std::max(a, b));
+            vertices.push_back(a);
+        }
+    std::sort(edges.begin(), edges.end());
+    for (std::size_t i = 0; i < edges.size(); i += 2)
+        if (i + 1 >= edges.size() || edges[i] != edges[i + 1] ||
+            (i + 2 < edges.size() && edges[i + 2] == edges[i]))
+            return false;
+    std::sort(vertices.begin(), vertices.end());
+    vertices.erase(std::unique(vertices.begin(), vertices.end()), vertices.end());
+    const long euler = static_cast<long>(vertices.size()) - static_cast<long>(edges.size() / 2) +
+                       static_cast<long>(faces.size());
+    if (euler != 2) return false;
+    // One fan per vertex: walk its link (edge b -> c of each triangle (v, b, c)) once around.
+    std::vector<std::pair<std::int32_t, std::int32_t>> link;
+    for (const std::int32_t v : vertices) {
+        link.clear();
+        for (const auto& f : faces) {
+            const int i = static_cast<int>(std::find(f.begin(), f.end(), v) - f.begin());
+            if (i < 3)
+                link.emplace_back(f[static_cast<std::size_t>((i + 1) % 3)],
+                                  f[static_cast<std::size_t>((i + 2) % 3)]);
+        }
+        std::size_t steps = 1;
+        std::int32_t at = link[0].second;
+        while (at != link[0].first && steps <= link.size()) {
+            const auto next = std::find_if(link.begin(), link.end(),
+                                           [&](const auto& e) { return e.first == at; });
+            if (next == link.end()) return false;
+            at = next->second;
+            ++steps;
+        }
+        if (steps != link.size()) return false;
+    }
+    return true;
+}
+
+}  // namespace
+
+bool RefineOps::insert_node(std::int32_t t, Objective objective) {
+    constexpr std::size_t kMaxCavity = 40;
+    const core::Label region = topo_.region(t);
+    std::vector<std::array<std::int32_t, 3>> boundary;
+    std::vector<V3> candidates;
+    // The chosen cavity, boundary and node among the variants.
+    std::vector<std::int32_t> chosen_cavity;
+    std::vector<std::array<std::int32_t, 3>> chosen_boundary;
+    V3 chosen_p = V3::Zero();
+    double chosen_cost = kInf;
+    const Tet t_nodes = topo_.tet(t);
+    for (int variant = 0; variant < 8; ++variant) {
+        if (variant < 6) {
+            // The ring of an edge of t not on a wall: the node splits the edge, then moves.
+            static constexpr int kEdge[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
+            if (!topo_.edge_ring(t_nodes[static_cast<std::size_t>(kEdge[variant][0])],
+                                 t_nodes[static_cast<std::size_t>(kEdge[variant][1])], t,
+                                 ring_tets_, ring_))
+                continue;
+            cavity_ = ring_tets_;
+        } else {
+            // t, then the tets across the non-wall faces of the tets already in the cavity.
+            cavity_.assign(1, t);
+            for (int r = 0; r < variant - 5; ++r) {
+                const std::size_t n = cavity_.size();
+                for (std::size_t k = 0; k < n; ++k)
+                    for (int i = 0; i < 4; ++i) {
+                        const std::int32_t u = topo_.neighbor(cavity_[k], i);
+                        if (u >= 0 && std::find(cavity_.begin(), cavity_.end(), u) == cavity_.end())
+                            cavity_.push_back(u);
+                    }
+            }
+        }
+        if (cavity_.size() > kMaxCavity) continue;
+        boundary.clear();
+        for (const std::int32_t c : cavity_)
+            for (int i = 0; i < 4; ++i) {
+                const std::int32_t u = topo_.neighbor(c, i);
+                if (u >= 0 && std::find(cavity_.begin(), cavity_.end(), u) != cavity_.end())
+                    continue;
+                const auto f =
+                    tet_face(topo_.tet(c), i);  // outward; the new node sees it from inside
+                boundary.push_back({f[0], f[2], f[1]});
+            }
+        if (!is_sphere(boundary)) continue;
+        // What the node is placed for: fewest tets above skewness 0.8, then the smallest largest
+        // cost (on a poor input triangle the dihedral term alone, as tet_cost), then the largest
+        // smallest dihedral angle.
+        struct Score {
+            std::size_t over = 0;
+            double min_dihedral = 180.0, max_cost = 0.0;
+            bool valid = false;
+        };
+        Score old;
+        old.valid = true;
+        for (const std::int32_t c : cavity_) {
+            const Tet& q = topo_.tet(c);
+            const TetShape shape =
+                tet_shape(topo_.xyz(q[0]), topo_.xyz(q[1]), topo_.xyz(q[2]), topo_.xyz(q[3]), true);
+            old.over += shape.skewness > 0.8 ? 1 : 0;
+            old.min_dihedral = std::min(old.min_dihedral, shape.min_dihedral_deg);
+        }
+        old.max_cost = max_cost(cavity_, objective);
+        auto score = [&](const V3& p) {
+            Score s;
+            for (const auto& f : boundary) {
+                const double *a = topo_.xyz(f[0]), *b = topo_.xyz(f[1]), *c = topo_.xyz(f[2]);
+                if (!positive_tet(a, b, c, p.data())) return s;
+                const TetShape shape = tet_shape(a, b, c, p.data(), true);
+                s.over += shape.skewness > 0.8 ? 1 : 0;
+                if (s.over > old.over) return s;  // never kept: not worth finishing
+                s.min_dihedral = std::min(s.min_dihedral, shape.min_dihedral_deg);
+                const double dihedral_cost = 1.0 - shape.min_dihedral_deg / kRegularDihedralDeg;
+                s.max_cost = std::max(s.max_cost, objective == Objective::Skewness ? shape.skewness
+                                                  : topo_.is_poor_face(f[0], f[1], f[2])
+                                                      ? dihedral_cost
+                                                      : std::max(shape.skewness, dihedral_cost));
+            }
+            s.valid = true;
+            return s;
+        };
+        auto better = [](const Score& x, const Score& y) {
+            if (x.valid != y.valid) return x.valid;
+            if (x.over != y.over) return x.over < y.over;
+            if (x.max_cost != y.max_cost) return x.max_cost < y.max_cost;
+            return x.min_dihedral > y.min_dihedral;
+        };
+        // Candidates: the ideal apex over each boundary face, on its inner side (height
+        // sqrt(2/3) of its mean edge), the centroids of t and of the boundary nodes.
+        candidates.clear();
+        V3 centroid_t = V3::Zero(), centroid_b = V3::Zero();
+        for (const std::int32_t v : topo_.tet(t)) centroid_t += topo_.point(v) / 4.0;
+        double h = 0.0;
+        for (const auto& f : boundary) {
+            const V3 a = topo_.point(f[0]), b = topo_.point(f[1]), c = topo_.point(f[2]);
+            const V3 n = (b - a).cross(c - a);  // towards the inside: (a, b, c, p) positive
+            const double edge = ((b - a).norm() + (c - b).norm() + (a - c).norm()) / 3.0;
+            h += edge;
+            centroid_b += a + b + c;
+            if (n.norm() > 0.0)
+                candidates.push_back((a + b + c) / 3.0 +
+                                     std::sqrt(2.0 / 3.0) * edge * n.normalized());
+        }
+        h /= static_cast<double>(boundary.size());
+        centroid_b /= static_cast<double>(3 * boundary.size());
+        candidates.push_back(centroid_t);
+        candidates.push_back(centroid_b);
+        candidates.push_back(0.5 * (centroid_t + centroid_b));
+        V3 best_p = centroid_b;
+        Score best;
+        for (const V3& p : candidates) {
+            const Score s = score(p);
+            if (better(s, best)) best = s, best_p = p;
+        }
+        // A small deterministic search around the best (fixed offsets from the tet id).
+        std::uint64_t state =
+            0x9E3779B97F4A7C15ull ^ static_cast<std::uint64_t>(t) * 0xBF58476D1CE4E5B9ull;
+        auto next = [&]() {
+            state ^= state >> 33;
+            state *= 0xff51afd7ed558ccdull;
+            state ^= state >> 33;
+            return static_cast<double>(state >> 11) / 9007199254740992.0 * 2.0 - 1.0;
+        };
+        for (const double step : {0.3, 0.15, 0.07, 0.03})
+            for (int k = 0; k < 12; ++k) {
+                const V3 d(next(), next(), next());
+                if (d.norm() < 1e-6) continue;
+                const V3 p = best_p + step * h * d.normalized();
+                const Score s = score(p);
+                if (better(s, best)) best = s, best_p = p;
+            }
+        // Kept when valid, with no more tets above skewness 0.8, and either the smallest
+        // dihedral angle larger with the largest cost not larger, or the largest cost smaller
+        // with the smallest dihedral angle not smaller (unless it stays above the sliver
+        // threshold): near 1 the skewness saturates, so the cost alone could trade a 1 deg
+        // sliver for a 0.1 deg one.
+        const bool dihedral_gain =
+            best.min_dihedral > old.min_dihedral && best.max_cost <= old.max_cost;
+        const bool cost_gain =
+            best.max_cost < old.max_cost &&
+            best.min_dihedral >= std::min(old.min_dihedral, params_.sliver_dihedral_deg);
+        if (!best.valid || best.over > old.over || !(dihedral_gain || cost_gain)) continue;
+        if (best.max_cost < chosen_cost) {
+            chosen_cost = best.max_cost;
+            chosen_cavity = cavity_;
+            chosen_boundary = boundary;
+            chosen_p = best_p;
+        }
+    }
+    if (chosen_cavity.empty()) return false;
+    std::int32_t level = 0;
+    if (!topo_.mesh().level.empty())
+        for (const std::int32_t c : chosen_cavity)
+            for (const std::int32_t v : topo_.tet(c))
+                level = std::max(level, topo_.mesh().level[static_cast<std::size_t>(v)]);
+    const std::int32_t v = topo_.add_node(chosen_p, level);
+    candidate_.clear();
+    for (const auto& f : chosen_boundary) candidate_.push_back({f[0], f[1], f[2], v});
+    apply(chosen_cavity, candidate_, region);
     return true;
 }
 

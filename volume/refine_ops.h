@@ -20,7 +20,8 @@ namespace frontmesh::volume {
 /// What a local change minimises: the largest value over the tets it touches.
 enum class Objective {
     Skewness,  ///< Eq. 1 (the paper's criterion)
-    Combined,  ///< max(skewness, 1 - min dihedral / 70.53 deg): slivers and caps alike
+    Combined,  ///< max(skewness, 1 - min dihedral / 70.53 deg): slivers and caps alike; on a
+               ///< poor input triangle (TetTopology::is_poor_face) the dihedral term alone
 };
 
 /// Skewness (Eq. 1) and smallest dihedral angle (degrees, when asked) of a tet; a nearly flat
@@ -39,7 +40,7 @@ struct RefineCounts {
     std::size_t nodes_removed = 0;
     std::size_t smoothing_moves = 0;
     std::size_t flips_2_3 = 0, flips_3_2 = 0, flips_4_4 = 0, flips_n_m = 0;
-    std::size_t sliver_flips = 0, sliver_moves = 0, sliver_removals = 0;
+    std::size_t sliver_flips = 0, sliver_moves = 0, sliver_removals = 0, sliver_insertions = 0;
     std::size_t flip_attempts = 0, edge_rings = 0;  ///< work done (tets examined, rings walked)
 };
 
@@ -62,7 +63,8 @@ public:
     void flips();
 
     /// Beyond the paper: slivers (small dihedral) and remaining caps, worst first: flips with the
-    /// combined objective, then moves of their interior nodes, then conditional node removal.
+    /// combined objective, then moves of their interior nodes, then conditional node removal,
+    /// then a Steiner node (insert_node).
     void slivers();
 
     std::vector<std::int32_t> bad_tets(Objective objective, double threshold) const;
@@ -97,6 +99,15 @@ public:
     /// when that beats the ring's current largest cost. 3 -> 2, 4 -> 4, n -> 2n - 4.
     bool remove_edge(std::int32_t a, std::int32_t b, std::int32_t t, Objective objective);
 
+    /// Beyond the paper: a new interior node for tet t, for the tets no flip, move or removal
+    /// mends (typically all four nodes on the input surface: nothing of them can move). The
+    /// cavity is t and the tets across its non-wall faces (then also the tets across theirs),
+    /// when its boundary is a sphere; the node goes to the best of a few positions (ideal apexes
+    /// of t's faces, centroids, a small deterministic search) and is joined to every boundary
+    /// face, so the walls and the input triangles stay. Kept when every new tet is strictly
+    /// positive (exact) and the largest cost falls (never more tets above skewness 0.8).
+    bool insert_node(std::int32_t t, Objective objective);
+
     /// 2 -> 3: face i of tet t and the tet across it become three tets around the new edge AB.
     bool flip_2_3(std::int32_t t, int i, Objective objective);
 
@@ -114,7 +125,7 @@ private:
     TetTopology& topo_;
     RefineParams params_;
     bool unconditional_ = false;
-    std::vector<std::int32_t> star_, link_, ring_tets_, ring_;
+    std::vector<std::int32_t> star_, link_, ring_tets_, ring_, cavity_;
     std::vector<Tet> candidate_, best_;
     std::vector<std::int32_t> new_ids_;
     std::vector<Eigen::Vector3d> axes_;

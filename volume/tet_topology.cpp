@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cmath>
 #include <string>
 
 #include <tbb/blocked_range.h>
@@ -155,6 +156,18 @@ TetTopology::TetTopology(core::TetMesh mesh) : mesh_(std::move(mesh)) {
                     nbr_[static_cast<std::size_t>(t)][static_cast<std::size_t>(i)] = -1;
         });
     }
+    // Poor input triangles: skewness 1 - A / A_opt above the threshold, A_opt = 3 sqrt(3) / 4 r^2
+    // with the circumradius r = |ab| |bc| |ca| / (4 A).
+    for (const auto& f : mesh_.faces) {
+        const Eigen::Vector3d a = mesh_.point(f[0]), b = mesh_.point(f[1]), c = mesh_.point(f[2]);
+        const double area = 0.5 * (b - a).cross(c - a).norm();
+        const double lengths = (b - a).norm() * (c - b).norm() * (a - c).norm();
+        const double skewness =
+            area > 0.0 ? 1.0 - area / (0.75 * std::sqrt(3.0) * std::pow(lengths / (4.0 * area), 2))
+                       : 1.0;
+        if (skewness > kPoorFaceSkewness) poor_faces_.push_back(sorted_key(f[0], f[1], f[2]));
+    }
+    std::sort(poor_faces_.begin(), poor_faces_.end());
     alive_.assign(n_tets, 1);
     alive_count_ = n_tets;
     node_tet_.assign(n_nodes, -1);
@@ -165,6 +178,33 @@ TetTopology::TetTopology(core::TetMesh mesh) : mesh_(std::move(mesh)) {
 void TetTopology::set_point(std::int32_t v, const Eigen::Vector3d& p) {
     FM_ASSERT(!is_surface_node(v));
     mesh_.point(v) = p;
+}
+
+bool TetTopology::is_poor_face(std::int32_t a, std::int32_t b, std::int32_t c) const {
+    return !poor_faces_.empty() &&
+           std::binary_search(poor_faces_.begin(), poor_faces_.end(), sorted_key(a, b, c));
+}
+
+bool TetTopology::has_poor_face(const Tet& t) const {
+    if (poor_faces_.empty()) return false;
+    int on_surface = 0;
+    for (const std::int32_t v : t) on_surface += is_surface_node(v) ? 1 : 0;
+    if (on_surface < 3) return false;
+    for (int i = 0; i < 4; ++i) {
+        const auto f = tet_face(t, i);
+        if (is_surface_node(f[0]) && is_surface_node(f[1]) && is_surface_node(f[2]) &&
+            is_poor_face(f[0], f[1], f[2]))
+            return true;
+    }
+    return false;
+}
+
+std::int32_t TetTopology::add_node(const Eigen::Vector3d& p, std::int32_t level) {
+    const std::int32_t v = mesh_.add_node(p);
+    if (!mesh_.level.empty()) mesh_.level.push_back(level);
+    node_tet_.push_back(-1);
+    FM_ASSERT(static_cast<std::size_t>(v) + 1 == node_tet_.size());
+    return v;
 }
 
 bool TetTopology::star(std::int32_t v, std::vector<std::int32_t>& tets) const {

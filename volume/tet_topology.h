@@ -61,6 +61,9 @@ public:
     const double* xyz(std::int32_t v) const { return &mesh_.xyz[3 * static_cast<std::size_t>(v)]; }
     Eigen::Vector3d point(std::int32_t v) const { return mesh_.point(v); }
     void set_point(std::int32_t v, const Eigen::Vector3d& p);
+    /// A new interior node at p (a Steiner node), unused until replace() puts it in tets;
+    /// `level` is its front level when the mesh records levels.
+    std::int32_t add_node(const Eigen::Vector3d& p, std::int32_t level);
     /// Nodes [0, surface_vertices) are fixed (input surface).
     bool is_surface_node(std::int32_t v) const { return v < mesh_.surface_vertices; }
     /// One alive tet containing v, -1 when v is removed or unused.
@@ -86,6 +89,15 @@ public:
     void replace(std::span<const std::int32_t> old_tets, std::span<const Tet> new_tets,
                  core::Label region, std::vector<std::int32_t>* new_ids = nullptr);
 
+    /// True when (a, b, c) is an input triangle on which no tet can have skewness (Eq. 1) at or
+    /// below kPoorFaceSkewness: the least skewness of a tet on a triangle is the triangle's own,
+    /// 1 - A / A_opt (A_opt: the equilateral triangle in the same circumcircle), reached with
+    /// the apex on the circumsphere of radius 3 r / (2 sqrt 2) above the circumcentre.
+    bool is_poor_face(std::int32_t a, std::int32_t b, std::int32_t c) const;
+    /// True when a face of t is a poor input triangle (is_poor_face).
+    bool has_poor_face(const Tet& t) const;
+    static constexpr double kPoorFaceSkewness = 0.8;
+
     /// Consistency of adjacency and node -> tet (for tests): every non-wall link symmetric and
     /// through a face with the same three nodes, node_tet pointing at an alive tet holding it.
     bool check() const;
@@ -102,6 +114,7 @@ private:
     std::vector<std::uint8_t> alive_;
     std::vector<std::int32_t> node_tet_;
     std::vector<std::int32_t> free_;
+    std::vector<std::array<std::int32_t, 3>> poor_faces_;  ///< sorted node triples
     std::size_t alive_count_ = 0;
     mutable std::vector<std::uint32_t> mark_;  ///< star walk marks (not thread-safe)
     mutable std::uint32_t epoch_ = 0;

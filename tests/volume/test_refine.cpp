@@ -292,6 +292,122 @@ TEST_CASE("Refined tetgen sphere passes meshcheck with the surface preserved", "
     CHECK(std::system(command.c_str()) == 0);
 }
 
+namespace {
+
+// A pyramid over a slightly folded diamond (a, c, b, d): the input triangles (a, b, c) and
+// (a, b, d) meet at 178 deg along a-b; apex e. Three tets, all nodes on the surface: the flat
+// sliver (a, b, c, d) lying on the two triangles, and the two tets above it around edge c-d.
+core::TetMesh folded_pyramid() {
+    core::TetMesh m;
+    const std::int32_t a = m.add_node({-0.5, 0.0, 0.0}), b = m.add_node({0.5, 0.0, 0.0});
+    const std::int32_t c = m.add_node({0.0, -1.0, 0.0}), d = m.add_node({0.0, 1.0, 0.03});
+    const std::int32_t e = m.add_node({0.2, -0.15, 1.3});
+    m.surface_vertices = 5;
+    auto positive = [&](const Tet& t) {
+        const double* x = m.xyz.data();
+        return volume::positive_tet(x + 3 * t[0], x + 3 * t[1], x + 3 * t[2], x + 3 * t[3]);
+    };
+    for (Tet t : {Tet{a, b, c, d}, Tet{a, c, d, e}, Tet{b, c, d, e}}) {
+        if (!positive(t)) std::swap(t[1], t[2]);
+        m.add_tet(t[0], t[1], t[2], t[3], 1);
+    }
+    const Eigen::Vector3d inside =
+        (m.point(a) + m.point(b) + m.point(c) + m.point(d) + m.point(e)) / 5.0;
+    using Face = std::array<std::int32_t, 3>;
+    for (Face f : {Face{a, b, c}, Face{a, b, d}, Face{a, c, e}, Face{c, b, e}, Face{b, d, e},
+                   Face{d, a, e}}) {
+        const Eigen::Vector3d n =
+            (m.point(f[1]) - m.point(f[0])).cross(m.point(f[2]) - m.point(f[0]));
+        if (n.dot(m.point(f[0]) - inside) < 0.0) std::swap(f[1], f[2]);  // outward
+        m.faces.push_back(f);
+    }
+    m.region_in.assign(6, 1);
+    m.region_out.assign(6, 0);
+    return m;
+}
+
+}  // namespace
+
+TEST_CASE("A Steiner node mends a sliver whose four nodes are on the surface", "[refine]") {
+    const core::TetMesh input = folded_pyramid();
+    const auto before = volume::check_tet_mesh(input);
+    INFO(before.summary());
+    REQUIRE(before.valid());
+    const auto q_before = volume::tet_quality(input);
+    REQUIRE(q_before.min_dihedral_deg < 10.0);  // the sliver
+    TetTopology topo(input);
+    RefineOps ops(topo, RefineParams{});
+    // No interior node to move or remove: only a new node (or a flip) can help.
+    REQUIRE(ops.insert_node(0, Objective::Combined));
+    REQUIRE(topo.check());
+    const core::TetMesh out = topo.compact();
+    const auto after = volume::check_tet_mesh(out);
+    INFO(after.summary());
+    CHECK(after.valid());
+    CHECK(after.volume == Approx(before.volume).epsilon(1e-12));
+    CHECK(same_surface(out, input));  // input triangles and surface nodes untouched
+    CHECK(out.node_count() == input.node_count() + 1);
+    CHECK(out.tet_count() > input.tet_count());
+    const auto q_after = volume::tet_quality(out);
+    CHECK(q_after.min_dihedral_deg > q_before.min_dihedral_deg + 10.0);
+    CHECK(q_after.skewness_over_08 <= q_before.skewness_over_08);
+
+    // A regular tet gains nothing from a node inside it: refused, nothing changed.
+    core::TetMesh regular;
+    regular.add_node({1, 1, 1});
+    regular.add_node({1, -1, -1});
+    regular.add_node({-1, 1, -1});
+    regular.add_node({-1, -1, 1});
+    regular.add_tet(0, 1, 2, 3, 1);
+    if (!volume::positive_tet(regular.xyz.data(), regular.xyz.data() + 3, regular.xyz.data() + 6,
+                              regular.xyz.data() + 9))
+        std::swap(regular.tets[0][1], regular.tets[0][2]);
+    TetTopology single(regular);
+    RefineOps ops_single(single, RefineParams{});
+    CHECK_FALSE(ops_single.insert_node(0, Objective::Combined));
+    CHECK(single.compact().tets == regular.tets);
+    CHECK(single.compact().node_count() == 4);
+}
+
+TEST_CASE("Poor input triangles: the Combined cost of a tet on one is its dihedral term",
+          "[refine]") {
+    // Node 3 nearly on segment 0-1: triangle (0, 3, 1) has a 170 deg angle, so every tet on it
+    // has skewness above 0.8 (the least is the triangle's own 1 - A / A_opt, here ~0.9).
+    core::TetMesh m;
+    m.add_node({0.0, 0.0, 0.0});
+    m.add_node({1.0, 0.0, 0.0});
+    m.add_node({0.5, 0.9, 0.0});
+    m.add_node({0.5, -0.044, 0.0});
+    m.add_node({0.5, 0.3, 0.7});
+    m.add_node({0.5, -0.3, -0.6});
+    m.add_tet(0, 1, 2, 4, 1);
+    m.add_tet(0, 3, 1, 5, 1);
+    m.add_tet(0, 1, 3, 4, 1);
+    m.add_tet(0, 2, 1, 5, 1);
+    for (auto& t : m.tets)
+        if (!volume::positive_tet(m.xyz.data() + 3 * t[0], m.xyz.data() + 3 * t[1],
+                                  m.xyz.data() + 3 * t[2], m.xyz.data() + 3 * t[3]))
+            std::swap(t[1], t[2]);
+    m.faces = {{0, 3, 1},
+               {0, 1, 2}};  // only the triangles under test; the rest is of no matter here
+    m.region_in.assign(2, 1);
+    m.region_out.assign(2, 0);
+    m.surface_vertices = 6;
+    TetTopology topo(m);
+    CHECK(topo.is_poor_face(0, 3, 1));
+    CHECK(topo.is_poor_face(1, 0, 3));  // any order
+    CHECK_FALSE(topo.is_poor_face(0, 1, 2));
+    CHECK(topo.has_poor_face(topo.tet(1)));
+    CHECK_FALSE(topo.has_poor_face(topo.tet(0)));
+    const Tet& t = topo.tet(1);
+    const auto shape =
+        volume::tet_shape(topo.xyz(t[0]), topo.xyz(t[1]), topo.xyz(t[2]), topo.xyz(t[3]), true);
+    CHECK(shape.skewness > 0.8);
+    CHECK(volume::tet_cost(topo, t, Objective::Combined) ==
+          Approx(1.0 - shape.min_dihedral_deg / 70.528779365509308));
+    CHECK(volume::tet_cost(topo, t, Objective::Skewness) == Approx(shape.skewness));
+}
+
 TEST_CASE("Refine parameters are validated by key", "[refine]") {
     RefineParams p;
     p.flip_skewness = 1.5;
