@@ -80,6 +80,7 @@ struct FrontEdge {
     std::int32_t a = -1, b = -1;
     std::int32_t next_out = -1, next_in = -1;  // intrusive lists of a's out- and b's in-edges
     std::int32_t fails = 0;
+    std::int32_t stalls = 0;  // times it was put back with nothing to remesh around it
     bool alive = false;
 };
 
@@ -268,8 +269,8 @@ private:
     bool sector_ok_at_b(std::int32_t a, std::int32_t b, std::int32_t c, const P2& pc, const Frame& fr) const;
     bool sector_ok_at_c(std::int32_t a, std::int32_t b, std::int32_t c, const Frame& fr) const;
     void gather(const Eigen::Vector3d& center, double radius, const Frame& fr);
-    void local_remesh(std::int32_t e);
-    bool close_small_loop(std::int32_t e);
+    bool local_remesh(std::int32_t e);
+    bool close_small_loop(std::int32_t e, double min_angle_deg = 1.0);
     // Local remeshings recorded within two edge lengths of edge e.
     int remeshings_near(std::int32_t e) {
         const std::int32_t a = edges_[static_cast<std::size_t>(e)].a, b = edges_[static_cast<std::size_t>(e)].b;
@@ -698,7 +699,7 @@ bool FrontMesher::advance(std::int32_t e, int fails) {
 // that maximises the smallest angle (dynamic programming over its diagonals). Each triangle
 // must agree with the background normals at its corners and a diagonal must not be a mesh
 // edge already. The smoothing after the front mends the angles.
-bool FrontMesher::close_small_loop(std::int32_t e) {
+bool FrontMesher::close_small_loop(std::int32_t e, double min_angle_deg) {
     constexpr int kMaxClosingLoop = 24;
     std::vector<std::int32_t> loop = {edges_[static_cast<std::size_t>(e)].a};
     std::int32_t cur = e;
@@ -754,7 +755,7 @@ bool FrontMesher::close_small_loop(std::int32_t e) {
                 }
             }
         }
-    if (best[std::size_t(m - 1)] < 1.0) return false;
+    if (!(best[std::size_t(m - 1)] >= min_angle_deg) || best[std::size_t(m - 1)] <= 0.0) return false;
     std::vector<std::pair<int, int>> todo = {{0, m - 1}};
     std::vector<std::array<std::int32_t, 3>> made;
     while (!todo.empty()) {
@@ -775,7 +776,7 @@ bool FrontMesher::close_small_loop(std::int32_t e) {
 
 // §3.2: remove the triangles around the ends of a stuck edge, the region growing with the
 // number of earlier remeshings there, and re-open the front.
-void FrontMesher::local_remesh(std::int32_t e) {
+bool FrontMesher::local_remesh(std::int32_t e) {
     const std::int32_t a = edges_[static_cast<std::size_t>(e)].a, b = edges_[static_cast<std::size_t>(e)].b;
     // The level counts earlier remeshings near here (new points do not remember them).
     const Eigen::Vector3d centre = 0.5 * (xyz_[static_cast<std::size_t>(a)] + xyz_[static_cast<std::size_t>(b)]);
@@ -802,10 +803,8 @@ void FrontMesher::local_remesh(std::int32_t e) {
         ring.erase(std::unique(ring.begin(), ring.end()), ring.end());
     }
     if (triangles.empty() || static_cast<std::int64_t>(triangles.size()) >= live_triangles_) {
-        dump_near(centre, std::max(10.0 * reach, 8.0));
-        FM_THROW(MeshingError, "remesh: the front cannot advance from edge at " +
-                                   where(xyz_[static_cast<std::size_t>(a)]) +
-                                   " and there is nothing to remesh around it");
+        remesh_sites_.remove(static_cast<std::int32_t>(remeshings_));
+        return false;  // nothing to remove around the edge
     }
     for (const std::int32_t t : triangles) remove_triangle(t);
     // A stuck loop edge survives the removal: give it a fresh start.
@@ -814,6 +813,7 @@ void FrontMesher::local_remesh(std::int32_t e) {
         queue_.push({0, (xyz_[static_cast<std::size_t>(b)] - xyz_[static_cast<std::size_t>(a)]).norm(), e});
     }
     ++remeshings_;
+    return true;
 }
 
 // Debugging aid: with FRONTMESH_FRONT_DUMP=path set, the triangles, front edges and
@@ -964,7 +964,27 @@ PatchMesh FrontMesher::run(const std::vector<PatchLoop>& loops) {
                                        std::to_string(front_size_) + " edges, " +
                                        std::to_string(remeshings_) + " local remeshings)");
         else
-            local_remesh(top.edge);
+            if (!local_remesh(top.edge)) {
+                // Nothing to remove around the edge (e.g. a loop edge at a sharp corner
+                // before any triangle): the last resort, then any valid closing of its loop.
+                if (advance(top.edge, 2) || close_small_loop(top.edge, 0.0)) {
+                    ++last_resort_;
+                    continue;
+                }
+                // Put back behind every fresh edge a few times: the front around may open
+                // the way.
+                FrontEdge& stuck = edges_[static_cast<std::size_t>(top.edge)];
+                if (stuck.stalls < 3) {
+                    ++stuck.stalls;
+                    stuck.fails = 1;
+                    queue_.push({1, top.length, top.edge});
+                    continue;
+                }
+                const Eigen::Vector3d& xa = xyz_[static_cast<std::size_t>(fe.a)];
+                dump_near(xa, 8.0);
+                FM_THROW(MeshingError, "remesh: the front cannot advance from edge at " + where(xa) +
+                                           " and there is nothing to remesh around it");
+            }
     }
     FM_CHECK(front_size_ == 0);
     static const char* const reasons[11] = {"normal", "side", "sector", "mesh_edge", "sector_apex",

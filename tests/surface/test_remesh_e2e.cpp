@@ -106,6 +106,7 @@ core::SurfaceNetwork background_from(const std::string& path, std::optional<doub
     ep.blur_sigma_mm = blur;
     surface::RepairParams rp;
     rp.min_component_volume_mm3 = env_or("FRONTMESH_REMESH_MIN_VOLUME", threshold ? 30.0 : 1.0);
+    rp.merge_tolerance_mm = env_or("FRONTMESH_REMESH_MERGE", rp.merge_tolerance_mm);
     return surface::repair(surface::extract(image, ep, ctx), rp, ctx);
 }
 
