@@ -3,7 +3,9 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <functional>
 #include <map>
+#include <set>
 #include <sstream>
 #include <string>
 
@@ -54,7 +56,8 @@ struct DiscreteCurve {
 };
 
 DiscreteCurve discretise(const core::SurfaceNetwork& bg, const FeatureCurve& curve,
-                         const SizeField& size, const EdgeTable& edges, int min_segments) {
+                         const std::function<double(std::int32_t)>& vertex_size,
+                         const EdgeTable& edges, int min_segments) {
     const auto& cv = curve.vertices;
     const std::size_t n = cv.size();
     std::vector<double> arc(n, 0.0), integral(n, 0.0);
@@ -63,7 +66,7 @@ DiscreteCurve discretise(const core::SurfaceNetwork& bg, const FeatureCurve& cur
         arc[i] = arc[i - 1] + len;
         // Trapezoid rule for the integral of 1/h along the segment.
         integral[i] = integral[i - 1] +
-                      0.5 * len * (1.0 / size.at_vertex(cv[i - 1]) + 1.0 / size.at_vertex(cv[i]));
+                      0.5 * len * (1.0 / vertex_size(cv[i - 1]) + 1.0 / vertex_size(cv[i]));
     }
     const double total = integral.back();
     const int segments = std::max(min_segments, static_cast<int>(std::lround(total)));
@@ -94,6 +97,70 @@ DiscreteCurve discretise(const core::SurfaceNetwork& bg, const FeatureCurve& cur
     out.s.push_back(arc.back());
     out.faces.push_back(segment_face(n - 2));
     return out;
+}
+
+// Two patches that both joined the same two curve points by an inner edge (a thin lens
+// between two curves) would make that edge non-manifold: the edge is flipped inside the
+// later patch (the other diagonal of its two faces there) when both new faces keep the
+// orientation of the old ones and the diagonal is not an edge yet. Returns the flips made.
+std::size_t flip_shared_inner_edges(core::SurfaceNetwork& out, const std::vector<std::int32_t>& face_patch,
+                                     std::size_t curve_points) {
+    std::size_t flips = 0;
+    for (int sweep = 0; sweep < 3; ++sweep) {
+        const EdgeTable et = edge_table(out);
+        std::set<std::pair<std::int32_t, std::int32_t>> edges;
+        for (const auto& e : et.vertices) edges.insert({e[0], e[1]});
+        std::vector<std::uint8_t> touched(out.face_count(), 0);
+        std::size_t made = 0;
+        for (std::size_t e = 0; e < et.edge_count(); ++e) {
+            const auto [x, y] = et.vertices[e];
+            if (std::size_t(x) >= curve_points || std::size_t(y) >= curve_points) continue;
+            const auto b = et.face_offsets[e], n = et.face_offsets[e + 1] - b;
+            if (n <= 2) continue;
+            // The faces of each patch on this edge; flip in the last patch holding two.
+            std::map<std::int32_t, std::vector<std::int32_t>> by_patch;
+            for (auto k = b; k < b + n; ++k) {
+                const std::int32_t f = et.edge_faces[std::size_t(k)];
+                by_patch[face_patch[std::size_t(f)]].push_back(f);
+            }
+            for (auto it = by_patch.rbegin(); it != by_patch.rend(); ++it) {
+                if (it->second.size() != 2) continue;
+                std::int32_t f = it->second[0], g = it->second[1];
+                if (touched[std::size_t(f)] || touched[std::size_t(g)]) continue;
+                // Orient so that f holds x -> y.
+                auto holds = [&](std::int32_t face) {
+                    const auto& t = out.faces[std::size_t(face)];
+                    for (int k = 0; k < 3; ++k)
+                        if (t[std::size_t(k)] == x && t[std::size_t((k + 1) % 3)] == y) return k;
+                    return -1;
+                };
+                if (holds(f) < 0) std::swap(f, g);
+                const int i = holds(f);
+                if (i < 0) continue;
+                const auto tf = out.faces[std::size_t(f)], tg = out.faces[std::size_t(g)];
+                const std::int32_t c = tf[std::size_t((i + 2) % 3)];
+                std::int32_t d = -1;
+                for (int j = 0; j < 3; ++j)
+                    if (tg[std::size_t(j)] == y && tg[std::size_t((j + 1) % 3)] == x) d = tg[std::size_t((j + 2) % 3)];
+                if (d < 0 || c == d || edges.count({std::min(c, d), std::max(c, d)})) continue;
+                const std::array<std::int32_t, 3> nf{c, x, d}, ng{d, y, c};
+                auto normal = [&](const std::array<std::int32_t, 3>& t) {
+                    return Eigen::Vector3d((out.point(t[1]) - out.point(t[0])).cross(out.point(t[2]) - out.point(t[0])));
+                };
+                const Eigen::Vector3d before = normal(tf) + normal(tg);
+                if (!(normal(nf).dot(before) > 0.0 && normal(ng).dot(before) > 0.0)) continue;
+                out.faces[std::size_t(f)] = nf;
+                out.faces[std::size_t(g)] = ng;
+                edges.insert({std::min(c, d), std::max(c, d)});
+                touched[std::size_t(f)] = touched[std::size_t(g)] = 1;
+                ++made;
+                break;
+            }
+        }
+        flips += made;
+        if (made == 0) break;
+    }
+    return flips;
 }
 
 }  // namespace
@@ -159,188 +226,266 @@ RemeshResult remesh(const core::SurfaceNetwork& bg, const RemeshParams& params,
              std::to_string(features.patches.size()) + " patches, " +
              std::to_string(features.curves.size()) + " curves");
 
-    // 3. Curves first, shared by every patch they bound. Output vertices: corners, then each
-    // curve's other points.
-    ctx.progress(0.15, "curves");
-    core::SurfaceNetwork out;
-    std::vector<std::int32_t> vertex_face;
-    std::map<std::int32_t, std::int32_t> corner_id;
-    for (const std::int32_t v : features.corners) {
-        corner_id[v] = out.add_vertex(bg.point(v));
-        vertex_face.push_back(-1);
-    }
-    std::map<std::pair<std::int32_t, std::int32_t>, int> end_pairs;
-    for (const auto& c : features.curves)
-        if (!c.is_closed)
-            ++end_pairs[{std::min(c.vertices.front(), c.vertices.back()),
-                         std::max(c.vertices.front(), c.vertices.back())}];
-    std::vector<DiscreteCurve> curves;
-    curves.reserve(features.curves.size());
-    for (const auto& c : features.curves) {
-        const std::int32_t a = c.vertices.front(), b = c.vertices.back();
-        int min_segments = 1;
-        if (c.is_closed || a == b) min_segments = 3;
-        else if (end_pairs[{std::min(a, b), std::max(a, b)}] > 1) min_segments = 2;
-        DiscreteCurve d = discretise(bg, c, size, features.edges, min_segments);
-        d.ids.resize(d.points.size());
-        for (std::size_t k = 0; k < d.points.size(); ++k) {
-            const bool first = k == 0, last = k + 1 == d.points.size();
-            if (!c.is_closed && (first || last)) {
-                d.ids[k] = corner_id.at(first ? a : b);
-            } else if (c.is_closed && last) {
-                d.ids[k] = d.ids[0];
-            } else {
-                d.ids[k] = out.add_vertex(d.points[k]);
-                vertex_face.push_back(d.faces[k]);
-            }
+    // Steps 3 to 7 run again, with the size halved around each crossing, when faces of the
+    // result intersect (at most kRounds times).
+    constexpr int kRounds = 4;
+    std::vector<std::pair<Eigen::Vector3d, double>> shrink_sites;  // centre, radius (mm)
+    const auto scale_at = [&shrink_sites](const Eigen::Vector3d& x) {
+        double scale = 1.0;
+        for (const auto& [c, r] : shrink_sites) {
+            const double d = (x - c).norm();
+            if (d < 2.0 * r) scale *= d <= r ? 0.5 : 0.5 + 0.5 * (d - r) / r;
         }
-        curves.push_back(std::move(d));
-    }
-    const std::size_t curve_points = out.vertex_count();
-    ctx.count("remesh.curve_points", double(curve_points));
-
-    // 4. Patches: background patch, loops from the shared curve points, advancing front.
-    ctx.progress(0.2, "advancing front");
-    const std::size_t np = features.patches.size();
-    std::vector<BackgroundPatch> patches;
-    patches.reserve(np);
-    for (const auto& p : features.patches) patches.emplace_back(bg, p.faces, false);
-    std::vector<std::vector<std::int32_t>> loop_ids(np);
-    std::vector<std::vector<PatchLoop>> loops(np);
-    for (std::size_t p = 0; p < np; ++p) {
-        for (const auto& loop : features.patches[p].loops) {
-            PatchLoop pl;
-            for (const auto& use : loop) {
-                const auto& ids = curves[std::size_t(use.curve)].ids;
-                const std::size_t m = ids.size();
-                for (std::size_t k = 0; k + 1 < m; ++k) {
-                    const std::int32_t id = use.forward ? ids[k] : ids[m - 1 - k];
-                    loop_ids[p].push_back(id);
-                    pl.points.push_back(out.point(id));
+        return std::max(scale, 0.125);
+    };
+    const auto vertex_size = [&](std::int32_t v) { return size.at_vertex(v) * scale_at(bg.point(v)); };
+    core::SurfaceNetwork out;
+    SurfaceConstraints constraints;
+    std::size_t curve_points = 0;
+    for (int round = 0; round < kRounds; ++round) {
+        ctx.count("remesh.rounds", double(round + 1));
+        // 3. Curves first, shared by every patch they bound. Output vertices: corners, then each
+        // curve's other points.
+        ctx.progress(0.15, "curves");
+        out = core::SurfaceNetwork();
+        std::vector<std::int32_t> vertex_face;
+        std::map<std::int32_t, std::int32_t> corner_id;
+        for (const std::int32_t v : features.corners) {
+            corner_id[v] = out.add_vertex(bg.point(v));
+            vertex_face.push_back(-1);
+        }
+        std::map<std::pair<std::int32_t, std::int32_t>, int> end_pairs;
+        for (const auto& c : features.curves)
+            if (!c.is_closed)
+                ++end_pairs[{std::min(c.vertices.front(), c.vertices.back()),
+                             std::max(c.vertices.front(), c.vertices.back())}];
+        std::vector<DiscreteCurve> curves;
+        curves.reserve(features.curves.size());
+        for (const auto& c : features.curves) {
+            const std::int32_t a = c.vertices.front(), b = c.vertices.back();
+            int min_segments = 1;
+            if (c.is_closed || a == b) min_segments = 3;
+            else if (end_pairs[{std::min(a, b), std::max(a, b)}] > 1) min_segments = 2;
+            DiscreteCurve d = discretise(bg, c, vertex_size, features.edges, min_segments);
+            d.ids.resize(d.points.size());
+            for (std::size_t k = 0; k < d.points.size(); ++k) {
+                const bool first = k == 0, last = k + 1 == d.points.size();
+                if (!c.is_closed && (first || last)) {
+                    d.ids[k] = corner_id.at(first ? a : b);
+                } else if (c.is_closed && last) {
+                    d.ids[k] = d.ids[0];
+                } else {
+                    d.ids[k] = out.add_vertex(d.points[k]);
+                    vertex_face.push_back(d.faces[k]);
                 }
             }
-            loops[p].push_back(std::move(pl));
+            curves.push_back(std::move(d));
         }
-    }
-    // Loops that pass a point twice (a patch touching itself at a corner) are legal but the
-    // hardest case for the front; counted for diagnosis.
-    {
-        std::size_t repeated = 0;
+        curve_points = out.vertex_count();
+        ctx.count("remesh.curve_points", double(curve_points));
+
+        // 4. Patches: background patch, loops from the shared curve points, advancing front.
+        ctx.progress(0.2, "advancing front");
+        const std::size_t np = features.patches.size();
+        std::vector<BackgroundPatch> patches;
+        patches.reserve(np);
+        for (const auto& p : features.patches) patches.emplace_back(bg, p.faces, false);
+        std::vector<std::vector<std::int32_t>> loop_ids(np);
+        std::vector<std::vector<PatchLoop>> loops(np);
         for (std::size_t p = 0; p < np; ++p) {
-            std::vector<std::int32_t> ids = loop_ids[p];
-            std::sort(ids.begin(), ids.end());
-            if (std::adjacent_find(ids.begin(), ids.end()) != ids.end()) ++repeated;
+            for (const auto& loop : features.patches[p].loops) {
+                PatchLoop pl;
+                for (const auto& use : loop) {
+                    const auto& ids = curves[std::size_t(use.curve)].ids;
+                    const std::size_t m = ids.size();
+                    for (std::size_t k = 0; k + 1 < m; ++k) {
+                        const std::int32_t id = use.forward ? ids[k] : ids[m - 1 - k];
+                        loop_ids[p].push_back(id);
+                        pl.points.push_back(out.point(id));
+                    }
+                }
+                loops[p].push_back(std::move(pl));
+            }
         }
-        ctx.count("remesh.patches_with_repeated_loop_points", double(repeated));
-    }
-    const SizeFunction size_function = [&size](const Eigen::Vector3d& x, std::int32_t face) {
-        return size.at(x, face);
-    };
-    FrontParams fp;
-    std::vector<PatchMesh> meshes(np);
-    std::vector<core::StageContext> contexts(np);
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, np, 1), [&](const auto& range) {
-        for (std::size_t p = range.begin(); p != range.end(); ++p)
-            meshes[p] = triangulate_patch(patches[p], loops[p], size_function, fp, contexts[p]);
-    });
-    for (std::size_t p = 0; p < np; ++p) {
-        for (const auto& [name, value] : contexts[p].counters()) ctx.add(name, value);
-        for (const auto& w : contexts[p].warnings()) ctx.warn(w);
-    }
+        // Loops that pass a point twice (a patch touching itself at a corner) are legal but the
+        // hardest case for the front; counted for diagnosis.
+        {
+            std::size_t repeated = 0;
+            for (std::size_t p = 0; p < np; ++p) {
+                std::vector<std::int32_t> ids = loop_ids[p];
+                std::sort(ids.begin(), ids.end());
+                if (std::adjacent_find(ids.begin(), ids.end()) != ids.end()) ++repeated;
+            }
+            ctx.count("remesh.patches_with_repeated_loop_points", double(repeated));
+        }
+        const SizeFunction size_function = [&size, &scale_at](const Eigen::Vector3d& x, std::int32_t face) {
+            return size.at(x, face) * scale_at(x);
+        };
+        FrontParams fp;
+        std::vector<PatchMesh> meshes(np);
+        std::vector<core::StageContext> contexts(np);
+        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, np, 1), [&](const auto& range) {
+            for (std::size_t p = range.begin(); p != range.end(); ++p)
+                meshes[p] = triangulate_patch(patches[p], loops[p], size_function, fp, contexts[p]);
+        });
+        for (std::size_t p = 0; p < np; ++p) {
+            for (const auto& [name, value] : contexts[p].counters()) ctx.add(name, value);
+            for (const auto& w : contexts[p].warnings()) ctx.warn(w);
+        }
 
-    // 5. One network: loop points are the shared curve points, exactly.
-    ctx.progress(0.6, "assembly");
-    std::vector<std::int32_t> face_patch;
-    for (std::size_t p = 0; p < np; ++p) {
-        const PatchMesh& mesh = meshes[p];
-        const std::size_t nloop = loop_ids[p].size();
-        FM_CHECK(mesh.points.size() >= nloop && mesh.point_face.size() == mesh.points.size());
-        std::vector<std::int32_t> map(mesh.points.size());
-        for (std::size_t k = 0; k < nloop; ++k) {
-            map[k] = loop_ids[p][k];
-            if (mesh.points[k] != out.point(map[k]))
-                FM_THROW(InternalError, "remesh: patch " + std::to_string(p) +
-                                            " moved loop point " + point_text(mesh.points[k]));
+        // 5. One network: loop points are the shared curve points, exactly.
+        ctx.progress(0.6, "assembly");
+        std::vector<std::int32_t> face_patch;
+        for (std::size_t p = 0; p < np; ++p) {
+            const PatchMesh& mesh = meshes[p];
+            const std::size_t nloop = loop_ids[p].size();
+            FM_CHECK(mesh.points.size() >= nloop && mesh.point_face.size() == mesh.points.size());
+            std::vector<std::int32_t> map(mesh.points.size());
+            for (std::size_t k = 0; k < nloop; ++k) {
+                map[k] = loop_ids[p][k];
+                if (mesh.points[k] != out.point(map[k]))
+                    FM_THROW(InternalError, "remesh: patch " + std::to_string(p) +
+                                                " moved loop point " + point_text(mesh.points[k]));
+            }
+            for (std::size_t k = nloop; k < mesh.points.size(); ++k) {
+                map[k] = out.add_vertex(mesh.points[k]);
+                vertex_face.push_back(mesh.point_face[k]);
+            }
+            const Patch& patch = features.patches[p];
+            for (const auto& t : mesh.faces) {
+                out.add_face(map[std::size_t(t[0])], map[std::size_t(t[1])], map[std::size_t(t[2])],
+                             patch.region_in, patch.region_out);
+                face_patch.push_back(static_cast<std::int32_t>(p));
+            }
         }
-        for (std::size_t k = nloop; k < mesh.points.size(); ++k) {
-            map[k] = out.add_vertex(mesh.points[k]);
-            vertex_face.push_back(mesh.point_face[k]);
-        }
-        const Patch& patch = features.patches[p];
-        for (const auto& t : mesh.faces) {
-            out.add_face(map[std::size_t(t[0])], map[std::size_t(t[1])], map[std::size_t(t[2])],
-                         patch.region_in, patch.region_out);
-            face_patch.push_back(static_cast<std::int32_t>(p));
-        }
-    }
-    ctx.count("remesh.front_faces", double(out.face_count()));
-    clock.lap("front");
+        ctx.count("remesh.front_faces", double(out.face_count()));
+        ctx.add("remesh.shared_inner_edges_flipped",
+                double(flip_shared_inner_edges(out, face_patch, curve_points)));
+        clock.lap("front");
 
-    // 6. Angle-based smoothing with projection, curve vertices on their curves, flips.
-    ctx.progress(0.7, "smoothing");
-    SurfaceConstraints constraints;
-    constraints.face_patch = std::move(face_patch);
-    constraints.vertex_face = vertex_face;
-    for (std::size_t c = 0; c < curves.size(); ++c) {
-        SurfaceCurve sc;
-        sc.is_closed = features.curves[c].is_closed;
-        for (const auto v : features.curves[c].vertices) sc.polyline.push_back(bg.point(v));
-        sc.vertices = curves[c].ids;
-        sc.s = curves[c].s;
-        constraints.curves.push_back(std::move(sc));
-    }
-    const std::vector<double> front_xyz = out.xyz;  // positions before smoothing
-    if (params.smoothing_iterations > 0) {
-        std::vector<const BackgroundPatch*> pointers;
-        for (const auto& p : patches) pointers.push_back(&p);
-        SmoothingParams smp;
-        smp.iterations = params.smoothing_iterations;
-        smp.flip_max_dihedral_deg = params.flip_max_dihedral_deg;
-        core::StageContext sub;
-        smooth_surface(out, pointers, constraints, smp, sub);
-        for (const auto& [name, value] : sub.counters()) ctx.add(name, value);
-    }
-
-    clock.lap("smoothing");
-
-    // 7. Checks.
-    ctx.progress(0.9, "checks");
-    const auto checks = core::check_region_boundaries(out);
-    for (const auto& c : checks) {
-        if (!c.is_closed() || !c.is_oriented() || c.nonmanifold_edges > 0)
-            FM_THROW(GeometryError, "remesh: region " + std::to_string(c.region) + " has " +
-                                        std::to_string(c.open_edges) + " open, " +
-                                        std::to_string(c.misoriented_edges) + " misoriented, " +
-                                        std::to_string(c.nonmanifold_edges) +
-                                        " non-manifold edges after remeshing");
-        const double before = core::enclosed_volume(bg, c.region);
-        ctx.count("remesh.volume_change_percent.region_" + std::to_string(c.region),
-                  before != 0.0 ? 100.0 * (c.volume - before) / before : 0.0);
-    }
-    if (params.check_self_intersections) {
-        // A local fix: vertices of intersecting faces go back to where the front put them
-        // (smoothing moved them); a few rounds, then the first remaining pair is an error.
-        auto pairs = core::self_intersections(out, 1000);
-        ctx.count("remesh.self_intersections_after_smoothing", double(pairs.size()));
-        for (int round = 0; round < 3 && !pairs.empty(); ++round) {
-            for (const auto& [f, g] : pairs)
-                for (const std::int32_t face : {f, g})
-                    for (const auto v : out.faces[std::size_t(face)])
-                        for (int k = 0; k < 3; ++k)
-                            out.xyz[3 * std::size_t(v) + std::size_t(k)] =
-                                front_xyz[3 * std::size_t(v) + std::size_t(k)];
-            pairs = core::self_intersections(out, 1000);
+        // 6. Angle-based smoothing with projection, curve vertices on their curves, flips.
+        ctx.progress(0.7, "smoothing");
+        constraints = SurfaceConstraints();
+        constraints.face_patch = std::move(face_patch);
+        constraints.vertex_face = vertex_face;
+        for (std::size_t c = 0; c < curves.size(); ++c) {
+            SurfaceCurve sc;
+            sc.is_closed = features.curves[c].is_closed;
+            for (const auto v : features.curves[c].vertices) sc.polyline.push_back(bg.point(v));
+            sc.vertices = curves[c].ids;
+            sc.s = curves[c].s;
+            constraints.curves.push_back(std::move(sc));
         }
-        ctx.count("remesh.self_intersections", double(pairs.size()));
-        if (!pairs.empty()) {
-            const auto& t = out.faces[std::size_t(pairs[0].first)];
-            const Eigen::Vector3d c = (out.point(t[0]) + out.point(t[1]) + out.point(t[2])) / 3.0;
-            FM_THROW(GeometryError,
-                     "remesh: faces " + std::to_string(pairs[0].first) + " and " +
-                         std::to_string(pairs[0].second) + " intersect near " + point_text(c) +
-                         " (region " + std::to_string(out.region_in[std::size_t(pairs[0].first)]) +
-                         "); try a smaller remesh.edge_length there");
+        const std::vector<double> front_xyz = out.xyz;  // positions before smoothing
+        if (params.smoothing_iterations > 0) {
+            std::vector<const BackgroundPatch*> pointers;
+            for (const auto& p : patches) pointers.push_back(&p);
+            SmoothingParams smp;
+            smp.iterations = params.smoothing_iterations;
+            smp.flip_max_dihedral_deg = params.flip_max_dihedral_deg;
+            core::StageContext sub;
+            smooth_surface(out, pointers, constraints, smp, sub);
+            for (const auto& [name, value] : sub.counters()) ctx.add(name, value);
         }
+
+        clock.lap("smoothing");
+
+        // 7. Checks.
+        ctx.progress(0.9, "checks");
+        const auto checks = core::check_region_boundaries(out);
+        bool again = false;
+        for (const auto& c : checks) {
+            if ((!c.is_closed() || !c.is_oriented() || c.nonmanifold_edges > 0) && round + 1 < kRounds) {
+                // Two patches joined the same two curve points by an inner edge (a short curve
+                // between sharp corners): meshed again with finer curves there.
+                const EdgeTable et = edge_table(out);
+                for (std::size_t e = 0; e < et.edge_count(); ++e) {
+                    int uses = 0;
+                    for (auto k = et.face_offsets[e]; k < et.face_offsets[e + 1]; ++k) {
+                        const auto f = std::size_t(et.edge_faces[std::size_t(k)]);
+                        uses += out.region_in[f] == c.region || out.region_out[f] == c.region;
+                    }
+                    if (uses == 0 || uses == 2) continue;
+                    const Eigen::Vector3d m = 0.5 * (out.point(et.vertices[e][0]) + out.point(et.vertices[e][1]));
+                    shrink_sites.emplace_back(m, 2.0 * size.at(m, -1));
+                }
+                ctx.warn("remesh: region " + std::to_string(c.region) +
+                         " is not a closed 2-manifold after the front; meshing again with half the size there");
+                again = true;
+                break;
+            }
+            if (!c.is_closed() || !c.is_oriented() || c.nonmanifold_edges > 0) {
+                // Name a place: the first edge of the region with other than two faces.
+                std::string place;
+                const EdgeTable et = edge_table(out);
+                for (std::size_t e = 0; e < et.edge_count() && place.empty(); ++e) {
+                    int uses = 0;
+                    std::string patches;
+                    for (auto k = et.face_offsets[e]; k < et.face_offsets[e + 1]; ++k) {
+                        const auto f = std::size_t(et.edge_faces[std::size_t(k)]);
+                        if (out.region_in[f] != c.region && out.region_out[f] != c.region) continue;
+                        ++uses;
+                        patches += " " + std::to_string(constraints.face_patch[f]);
+                    }
+                    if (uses != 0 && uses != 2)
+                        place = " (e.g. the edge at " +
+                                point_text(0.5 * (out.point(et.vertices[e][0]) + out.point(et.vertices[e][1]))) +
+                                ", faces of patches" + patches + ")";
+                }
+                FM_THROW(GeometryError, "remesh: region " + std::to_string(c.region) + " has " +
+                                            std::to_string(c.open_edges) + " open, " +
+                                            std::to_string(c.misoriented_edges) + " misoriented, " +
+                                            std::to_string(c.nonmanifold_edges) +
+                                            " non-manifold edges after remeshing" + place);
+            }
+            const double before = core::enclosed_volume(bg, c.region);
+            ctx.count("remesh.volume_change_percent.region_" + std::to_string(c.region),
+                      before != 0.0 ? 100.0 * (c.volume - before) / before : 0.0);
+        }
+        if (again) continue;
+        if (params.check_self_intersections) {
+            // A local fix: vertices of intersecting faces go back to where the front put them
+            // (smoothing moved them); a few rounds, then the first remaining pair is an error.
+            auto pairs = core::self_intersections(out, 1000);
+            ctx.count("remesh.self_intersections_after_smoothing", double(pairs.size()));
+            for (int round = 0; round < 3 && !pairs.empty(); ++round) {
+                for (const auto& [f, g] : pairs)
+                    for (const std::int32_t face : {f, g})
+                        for (const auto v : out.faces[std::size_t(face)])
+                            for (int k = 0; k < 3; ++k)
+                                out.xyz[3 * std::size_t(v) + std::size_t(k)] =
+                                    front_xyz[3 * std::size_t(v) + std::size_t(k)];
+                pairs = core::self_intersections(out, 1000);
+            }
+            ctx.count("remesh.self_intersections", double(pairs.size()));
+            if (!pairs.empty() && round + 1 < kRounds) {
+                // Meshed again with half the size around each crossing (two patches meeting at
+                // a sharp angle, or a gap narrower than the smallest size): the finer the
+                // triangles, the closer they follow the background, which does not intersect.
+                for (const auto& [f, g] : pairs)
+                    for (const std::int32_t face : {f, g}) {
+                        const auto& t = out.faces[std::size_t(face)];
+                        const Eigen::Vector3d c = (out.point(t[0]) + out.point(t[1]) + out.point(t[2])) / 3.0;
+                        shrink_sites.emplace_back(c, 2.0 * size.at(c, -1));
+                    }
+                ctx.warn("remesh: " + std::to_string(pairs.size()) +
+                         " pairs of faces intersect after smoothing; meshing again with half the size there");
+                continue;
+            }
+            if (!pairs.empty()) {
+                const auto& t = out.faces[std::size_t(pairs[0].first)];
+                const Eigen::Vector3d c = (out.point(t[0]) + out.point(t[1]) + out.point(t[2])) / 3.0;
+                FM_THROW(GeometryError,
+                         "remesh: faces " + std::to_string(pairs[0].first) + " and " +
+                             std::to_string(pairs[0].second) + " intersect near " + point_text(c) +
+                             " (region " + std::to_string(out.region_in[std::size_t(pairs[0].first)]) +
+                             ", patches " +
+                             std::to_string(constraints.face_patch[std::size_t(pairs[0].first)]) + " and " +
+                             std::to_string(constraints.face_patch[std::size_t(pairs[0].second)]) +
+                             "); try a smaller remesh.edge_length there");
+            }
+        }
+        break;
     }
     clock.lap("checks");
 
