@@ -785,8 +785,9 @@ bool FrontMesher::local_remesh(std::int32_t e) {
     const int level = std::min(1 + static_cast<int>(scratch_ids_.size()) / 2, 8);
     if (static_cast<int>(scratch_ids_.size()) >= params_.max_local_remesh) {
         dump_near(centre, std::max(10.0 * reach, 8.0));
-        FM_THROW(MeshingError, "remesh: the front cannot be closed near " + where(centre) + " after " +
-                                   std::to_string(scratch_ids_.size()) + " local remeshings there");
+        throw FrontStall("remesh: the front cannot be closed near " + where(centre) + " after " +
+                             std::to_string(scratch_ids_.size()) + " local remeshings there",
+                         centre, __FILE__, __LINE__, __func__);
     }
     remesh_sites_.insert(static_cast<std::int32_t>(remeshings_), centre);
     std::vector<std::int32_t> ring = {a, b}, triangles;
@@ -936,11 +937,12 @@ PatchMesh FrontMesher::run(const std::vector<PatchLoop>& loops) {
         FrontEdge& fe = edges_[static_cast<std::size_t>(top.edge)];
         if (!fe.alive || fe.fails != top.fails) continue;
         if (++steps > max_steps)
-            FM_THROW(MeshingError, "remesh: the front does not close (step limit) near " +
-                                       where(xyz_[static_cast<std::size_t>(fe.a)]) + " (" +
-                                       std::to_string(live_triangles_) + " triangles, front of " +
-                                       std::to_string(front_size_) + " edges, " +
-                                       std::to_string(remeshings_) + " local remeshings)");
+            throw FrontStall("remesh: the front does not close (step limit) near " +
+                                 where(xyz_[static_cast<std::size_t>(fe.a)]) + " (" +
+                                 std::to_string(live_triangles_) + " triangles, front of " +
+                                 std::to_string(front_size_) + " edges, " +
+                                 std::to_string(remeshings_) + " local remeshings)",
+                             xyz_[static_cast<std::size_t>(fe.a)], __FILE__, __LINE__, __func__);
         if ((steps & 0x3fff) == 0)
             ctx_.progress(std::min(1.0, static_cast<double>(live_triangles_) / expected),
                           "front: " + std::to_string(live_triangles_) + " triangles, " +
@@ -958,11 +960,12 @@ PatchMesh FrontMesher::run(const std::vector<PatchLoop>& loops) {
             continue;
         }
         else if (remeshings_ >= max_remeshings)
-            FM_THROW(MeshingError, "remesh: the front stalls near " +
-                                       where(xyz_[static_cast<std::size_t>(fe.a)]) + " (" +
-                                       std::to_string(live_triangles_) + " triangles, front of " +
-                                       std::to_string(front_size_) + " edges, " +
-                                       std::to_string(remeshings_) + " local remeshings)");
+            throw FrontStall("remesh: the front stalls near " +
+                                 where(xyz_[static_cast<std::size_t>(fe.a)]) + " (" +
+                                 std::to_string(live_triangles_) + " triangles, front of " +
+                                 std::to_string(front_size_) + " edges, " +
+                                 std::to_string(remeshings_) + " local remeshings)",
+                             xyz_[static_cast<std::size_t>(fe.a)], __FILE__, __LINE__, __func__);
         else
             if (!local_remesh(top.edge)) {
                 // Nothing to remove around the edge (e.g. a loop edge at a sharp corner
@@ -982,8 +985,9 @@ PatchMesh FrontMesher::run(const std::vector<PatchLoop>& loops) {
                 }
                 const Eigen::Vector3d& xa = xyz_[static_cast<std::size_t>(fe.a)];
                 dump_near(xa, 8.0);
-                FM_THROW(MeshingError, "remesh: the front cannot advance from edge at " + where(xa) +
-                                           " and there is nothing to remesh around it");
+                throw FrontStall("remesh: the front cannot advance from edge at " + where(xa) +
+                                     " and there is nothing to remesh around it",
+                                 xa, __FILE__, __LINE__, __func__);
             }
     }
     FM_CHECK(front_size_ == 0);
@@ -1086,7 +1090,7 @@ PatchMesh triangulate_patch(const BackgroundPatch& patch, const std::vector<Patc
             for (const auto& w : sub.warnings()) ctx.warn(w);
             ctx.add("remesh.patch_retries", attempt);
             return mesh;
-        } catch (const core::MeshingError& e) {
+        } catch (const FrontStall& e) {
             if (attempt + 1 >= params.attempts) throw;
             ctx.warn(std::string(e.what()) + "; the patch starts again with sizes x " +
                      std::to_string(std::pow(0.85, attempt + 1)));

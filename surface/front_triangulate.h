@@ -12,6 +12,7 @@
 
 #include <Eigen/Core>
 
+#include "pipeline/core/error.h"
 #include "pipeline/core/stage_context.h"
 #include "pipeline/core/surface_network.h"
 
@@ -107,10 +108,23 @@ struct PatchMesh {
     std::vector<std::int32_t> point_face;
 };
 
+/// The front of a patch cannot be closed: a MeshingError that also carries the place (mm),
+/// so that the caller can mesh the place again finer.
+class FrontStall : public core::MeshingError {
+public:
+    FrontStall(const std::string& message, const Eigen::Vector3d& place, const char* file = "",
+               int line = 0, const char* function = "")
+        : core::MeshingError(message, file, line, function), place_(place) {}
+    const Eigen::Vector3d& place() const { return place_; }
+
+private:
+    Eigen::Vector3d place_;
+};
+
 /// Triangulates the patch from its boundary loops inward (a patch without loops, e.g. a
 /// closed surface, starts from a seed triangle and advances until the front closes). Every
 /// loop edge is an edge of exactly one output face; interior points lie on the background.
-/// Throws MeshingError naming the place when the front cannot be closed.
+/// Throws FrontStall naming the place when the front cannot be closed.
 PatchMesh triangulate_patch(const BackgroundPatch& patch, const std::vector<PatchLoop>& loops,
                             const SizeFunction& size, const FrontParams& params,
                             core::StageContext& ctx);

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <functional>
 #include <map>
+#include <optional>
 #include <set>
 #include <sstream>
 #include <string>
@@ -324,10 +325,32 @@ RemeshResult remesh(const core::SurfaceNetwork& bg, const RemeshParams& params,
         FrontParams fp;
         std::vector<PatchMesh> meshes(np);
         std::vector<core::StageContext> contexts(np);
+        // A patch whose front stalls is recorded (patch order decides which error is
+        // reported, so the result does not depend on the threads).
+        std::vector<std::optional<FrontStall>> stalls(np);
         tbb::parallel_for(tbb::blocked_range<std::size_t>(0, np, 1), [&](const auto& range) {
-            for (std::size_t p = range.begin(); p != range.end(); ++p)
-                meshes[p] = triangulate_patch(patches[p], loops[p], size_function, fp, contexts[p]);
+            for (std::size_t p = range.begin(); p != range.end(); ++p) {
+                try {
+                    meshes[p] = triangulate_patch(patches[p], loops[p], size_function, fp, contexts[p]);
+                } catch (const FrontStall& e) {
+                    stalls[p] = e;
+                }
+            }
         });
+        std::size_t stalled = 0;
+        std::string places;
+        for (std::size_t p = 0; p < np; ++p) {
+            if (!stalls[p]) continue;
+            if (++stalled <= 4) places += " " + point_text(stalls[p]->place());
+            if (round + 1 >= kRounds) throw *stalls[p];
+            const Eigen::Vector3d& x = stalls[p]->place();
+            shrink_sites.emplace_back(x, 4.0 * size.at(x, -1));
+        }
+        if (stalled > 0) {
+            ctx.warn("remesh: the front stalled in " + std::to_string(stalled) + " patch(es) (near" + places +
+                     "); meshing again with half the size there");
+            continue;
+        }
         for (std::size_t p = 0; p < np; ++p) {
             for (const auto& [name, value] : contexts[p].counters()) ctx.add(name, value);
             for (const auto& w : contexts[p].warnings()) ctx.warn(w);
