@@ -81,14 +81,16 @@ bool same_cycle(const Tri& t, std::int32_t a, std::int32_t b, std::int32_t c) {
 
 /// The layered advancing front of §3.1-3.2 for one region.
 ///
-/// Memory per million elements: nodes 24 B xyz + 60 B attributes; front faces 64 B + 64 B in
-/// the ADT; tets 16 B + 16 B links + 5 B. About 0.1 GB per million tets in all.
+/// Memory per million elements: nodes 24 B xyz + 60 B attributes + 68 B in the node ADT while
+/// on the front; front faces 64 B + 68 B in the face ADT; tets 16 B + 16 B links + 5 B. About
+/// 0.1 GB per million tets in all.
 class RegionMesher {
 public:
     using Log = std::function<void(const std::string&)>;
     RegionMesher(const core::SurfaceNetwork& surface, Label region, const TetraParams& params,
                  Log log)
-        : log_(std::move(log)), params_(params), region_(region), adt_(domain_of(surface, region), core::AdtItems::points) {
+        : log_(std::move(log)), params_(params), region_(region), adt_(domain_of(surface, region), core::AdtItems::points),
+          face_adt_(domain_of(surface, region), core::AdtItems::boxes) {
         init_front(surface);
     }
 
@@ -99,6 +101,8 @@ private:
     // ---- §3.1.1 required data ------------------------------------------------------------
     const TetraParams params_;
     const Label region_;
+    const double sin_min_ = std::sin(params_.min_angle_deg * kDegToRad);  // step 4 angle tests
+    const double cos_min_ = std::cos(params_.min_angle_deg * kDegToRad);
     std::int32_t boundary_nodes_ = 0;
     std::vector<std::int32_t> global_of_local_;
 
@@ -126,15 +130,15 @@ private:
     std::vector<std::int32_t> free_faces_;
     std::int32_t front_size_ = 0;
     core::Adt adt_;                           // the front nodes (§3.1.1)
+    // The boxes of the front faces: the faces a test needs are exactly those whose box meets
+    // the box of the tet (or segment), found without the node ADT's longest-edge margin.
+    core::Adt face_adt_;
     // Front edge lengths in buckets of 2^(1/4) (each edge once per face), for a safe bound on
-    // the longest front edge: a front face touching a box has all its nodes in the box grown
-    // by that bound, so node queries find every face a test needs.
+    // the longest front edge: it scales the rounding tolerance of the plane filter of
+    // is_valid_tet (a face meeting a box has its nodes in the box grown by that bound).
     static constexpr int kBuckets = 512;
     std::vector<std::int64_t> edge_bucket_ = std::vector<std::int64_t>(kBuckets, 0);
     int top_bucket_ = 0;
-    std::vector<std::int32_t> fmark_;          // scratch stamps per face
-    std::int32_t fmark_value_ = 0;
-    std::vector<std::int32_t> node_ids_;       // scratch
 
     // tetrahedra
     std::vector<Tet> tv_;
@@ -150,6 +154,12 @@ private:
     std::vector<std::int32_t> new_faces_;     // faces added by the last add/remove
     std::vector<std::int32_t> visible_faces_;
     std::vector<std::int32_t> near_faces_;    // front faces of the current base's search box
+    std::vector<std::int32_t> node_ids_;      // scratch: ADT query results
+    struct Cand {
+        double key0, key1;
+        std::int32_t id;
+    };
+    std::vector<Cand> cands_;                 // candidates of the current base
     std::int64_t stat_[8] = {};
 
     // ---- small helpers --------------------------------------------------------------------
@@ -230,22 +240,23 @@ private:
         if (top_bucket_ >= kBuckets - 1) return std::numeric_limits<double>::infinity();
         return std::exp2((top_bucket_ + 1 - kBuckets / 2) / 4.0) * 1.0001;
     }
-    /// Every front face that can touch `box` (and some more), in a deterministic order, from
-    /// the ADT of front nodes: the nodes in the box grown by the longest front edge.
-    void gather_faces(const core::AdtBox& box, std::vector<std::int32_t>& out) {
-        out.clear();
-        adt_.query_box(box.enlarged(max_front_edge()), node_ids_);
-        if (++fmark_value_ == std::numeric_limits<std::int32_t>::max()) {
-            std::fill(fmark_.begin(), fmark_.end(), 0);
-            fmark_value_ = 1;
+    /// Every front face whose box meets `box` (a superset of the faces touching it), in
+    /// increasing face id order, from the ADT of front face boxes.
+    void gather_faces(const core::AdtBox& box, std::vector<std::int32_t>& out) const {
+        face_adt_.query_box(box, out);
+    }
+    /// False when the box of triangle t misses the box [lo, hi] (exact comparisons).
+    bool box_meets_face(const double* lo, const double* hi, const Tri& t) const {
+        for (int k = 0; k < 3; ++k) {
+            const double a = p(t[0])[k], b = p(t[1])[k], c = p(t[2])[k];
+            if (std::max({a, b, c}) < lo[k] || std::min({a, b, c}) > hi[k]) return false;
         }
-        for (std::int32_t v : node_ids_)
-            for (std::int32_t k = face_head_[v]; k >= 0; k = fnext_[k]) {
-                const std::int32_t f = k / 3;
-                if (fmark_[f] == fmark_value_) continue;
-                fmark_[f] = fmark_value_;
-                out.push_back(f);
-            }
+        return true;
+    }
+    core::AdtBox face_box(std::int32_t f) const {
+        core::AdtBox b;
+        for (std::int32_t v : fv_[f]) b.extend(x(v));
+        return b;
     }
 
     // ---- front faces ----------------------------------------------------------------------
@@ -263,7 +274,6 @@ private:
             fstamp_.push_back(0);
             failed_stamp_.push_back(-1);
             falive_.push_back(0);
-            fmark_.push_back(0);
         }
         fv_[f] = {a, b, c};
         for (int k = 0; k < 3; ++k) count_edge(fv_[f][k], fv_[f][(k + 1) % 3], +1);
@@ -276,6 +286,7 @@ private:
         fnormal_[3 * f + 2] = u.z();
         ++fstamp_[f];
         falive_[f] = 1;
+        face_adt_.insert(f, face_box(f));
         const Tri& t = fv_[f];
         for (int k = 0; k < 3; ++k) {
             if (face_head_[t[k]] < 0) adt_.insert(t[k], x(t[k]));  // joins the front
@@ -299,6 +310,7 @@ private:
             count_edge(t[k], t[(k + 1) % 3], -1);
         }
         falive_[f] = 0;
+        face_adt_.remove(f);
         ++fstamp_[f];
         free_faces_.push_back(f);
         --front_size_;
@@ -509,8 +521,7 @@ private:
         double limit = 2.0 * bk.h;
         if (bk.eta > 0.6) limit = std::max(limit, bk.max_b);
         if ((bk.xm - P).norm() >= limit) return false;
-        const double sin_min = std::sin(params_.min_angle_deg * kDegToRad);
-        const double cos_min = std::cos(params_.min_angle_deg * kDegToRad);
+        const double sin_min = sin_min_, cos_min = cos_min_;
         for (int i = 0; i < 3; ++i) {
             const std::int32_t ai = bk.a[i], aj = bk.a[(i + 1) % 3];
             const V3& Ai = bk.A[i];
@@ -589,7 +600,7 @@ private:
 
     // ---- §3.1.3 n-th level front setup ----------------------------------------------------
     void setup_level();
-    bool is_visible(std::int32_t j, std::int32_t i);
+    bool is_visible(std::int32_t j, std::int32_t i, const std::vector<std::int32_t>& faces) const;
 
     // ---- §3.1.4 / §3.1.5 -------------------------------------------------------------------
     bool is_active(std::int32_t v) const { return setup_stamp_[v] == front_no_; }
@@ -645,22 +656,28 @@ void RegionMesher::init_front(const core::SurfaceNetwork& s) {
     remesh_budget_ = 1000 + 2 * static_cast<std::int64_t>(faces.size());
 }
 
-bool RegionMesher::is_visible(std::int32_t j, std::int32_t i) {
-    // Eq. 5 visibility: i lies in front of j and no front face separates them.
+bool RegionMesher::is_visible(std::int32_t j, std::int32_t i,
+                              const std::vector<std::int32_t>& faces) const {
+    // Eq. 5 visibility: i lies in front of j and no front face separates them. `faces` holds
+    // every front face whose box meets the box of the segment (and more).
     if ((x(i) - x(j)).dot(node_normal(j)) <= 0.0) return false;
-    core::AdtBox box;
-    box.extend(x(i));
-    box.extend(x(j));
-    gather_faces(box, visible_faces_);
-    for (std::int32_t f : visible_faces_) {
+    double lo[3], hi[3];
+    for (int k = 0; k < 3; ++k) {
+        lo[k] = std::min(p(i)[k], p(j)[k]);
+        hi[k] = std::max(p(i)[k], p(j)[k]);
+    }
+    for (std::int32_t f : faces) {
         const Tri& t = fv_[f];
         if (t[0] == i || t[1] == i || t[2] == i || t[0] == j || t[1] == j || t[2] == j) continue;
+        if (!box_meets_face(lo, hi, t)) continue;
         if (core::segment_intersects_triangle(p(j), p(i), p(t[0]), p(t[1]), p(t[2]))) return false;
     }
     return true;
 }
 
 void RegionMesher::setup_level() {
+    adt_.compact();
+    face_adt_.compact();
     const std::int32_t n = node_count();
     std::vector<double> nsum(3 * static_cast<std::size_t>(n), 0.0), asum(n, 0.0), rs(n, 0.0),
         ho(n, 0.0), c(n, 0.0);
@@ -693,17 +710,28 @@ void RegionMesher::setup_level() {
         const double R = 3.0 * rs[j];
         adt_.query_sphere(x(j), R, ids);
         const V3 Nj = node_normal(j);
+        bool have_faces = false;  // front faces of the box of the sphere, fetched once
         {
             for (std::int32_t i : ids) {
                 const double d = (x(i) - x(j)).norm();
                 if (d > R || d == 0.0 || !(rs[j] < rs[i])) continue;
                 if (node_normal(i).dot(Nj) >= 0.5) continue;  // angle must exceed 60 degrees
-                if (!is_visible(j, i)) continue;
                 const double coji = 0.05 * (3.0 * rs[i] / d) * (ho[j] - ho[i]) / ho[j];
                 const double cji = std::min(std::max(coji, -0.6), 0.5);
-                if (std::abs(cji) > std::abs(c[i])) c[i] = cji;
                 const double coij = 0.05 * (3.0 * rs[j] / d) * (ho[i] - ho[j]) / ho[i];
                 const double cij = std::min(std::max(coij, -0.6), 0.5);
+                // the (costly) visibility test only when it can change c_i or c_j
+                if (!(std::abs(cji) > std::abs(c[i])) && !(std::abs(cij) > std::abs(c[j]))) continue;
+                if ((x(i) - x(j)).dot(Nj) <= 0.0) continue;  // i behind j: not visible
+                if (!have_faces) {
+                    core::AdtBox box;
+                    box.extend(x(j));
+                    for (std::int32_t i2 : ids) box.extend(x(i2));
+                    gather_faces(box, visible_faces_);
+                    have_faces = true;
+                }
+                if (!is_visible(j, i, visible_faces_)) continue;
+                if (std::abs(cji) > std::abs(c[i])) c[i] = cji;
                 if (std::abs(cij) > std::abs(c[j])) c[j] = cij;
             }
         }
@@ -793,8 +821,9 @@ RegionMesher::Base RegionMesher::make_base(std::int32_t f, bool active_only) con
 /// Failing candidates fail again for a larger w, so each is tested once: first those of
 /// w = 1, then the new points, then those of w = 2..10 in order of (w, Eq. 12).
 /// `relaxed` (closing phase) drops the paper's quality filters but keeps every exact test.
-/// One ADT query per sphere fetches the front faces the validity tests of every candidate
-/// inside it need (the tet lies in the box of the base and the sphere).
+/// Candidates come from a sphere query on the ADT of front nodes; each candidate that passes
+/// the cheap tests fetches the front faces meeting its tet's box from the ADT of front face
+/// boxes for the exact validity test (the paper's Q_v of Eq. 9 and their faces, a superset).
 bool RegionMesher::try_base(std::int32_t f, bool active_only, bool relaxed) {
     const Base bk = make_base(f, active_only);
     static constexpr double kGs[4] = {1.0, 0.7, 0.49, 0.343};  // g = 0.7^i, Eq. 10
@@ -802,66 +831,50 @@ bool RegionMesher::try_base(std::int32_t f, bool active_only, bool relaxed) {
     const double rrel = std::max(3.0 * bk.h, 2.0 * std::sqrt(bk.area) + bk.max_b);
     core::AdtBox base_box;
     for (int i = 0; i < 3; ++i) base_box.extend(bk.A[i]);
-    for (double g : kGs) base_box.extend(bk.xo + g * bk.h * bk.n);
-    if (relaxed)
-        for (double g : {0.25, 0.1}) base_box.extend(bk.xo + g * bk.h * bk.n);
 
-    struct Cand {
-        double key0, key1;
-        std::int32_t id;
-    };
-    std::vector<Cand> cands;
+    std::vector<Cand>& cands = cands_;
     std::vector<std::int32_t>& near = near_faces_;
     const bool small_front = relaxed && front_size_ <= 64;
     V3 centroid = V3::Zero();
     int ncent = 0;
+    bool near_ready = false;  // `near` holds every front face (small closing front)
     // Candidates in the shell rmin < |x - x_ck| <= r (all front nodes above the base for a
-    // small closing front); fills `near` with the front faces of the search box.
+    // small closing front), from the ADT of front nodes.
     auto collect = [&](double rmin, double r) {
         cands.clear();
         if (small_front) {
             near.clear();
             for (std::int32_t g = 0; g < static_cast<std::int32_t>(fv_.size()); ++g)
                 if (falive_[g]) near.push_back(g);
+            near_ready = true;
+            const std::int32_t stamp = next_mark();
+            node_ids_.clear();
+            for (std::int32_t g : near)
+                for (std::int32_t q : fv_[g])
+                    if (mark_[q] != stamp) {
+                        mark_[q] = stamp;
+                        node_ids_.push_back(q);
+                    }
         } else {
-            core::AdtBox box = core::AdtBox::of_point(bk.xc).enlarged(r);
-            box.extend(base_box.lo);
-            box.extend(base_box.hi);
-            gather_faces(box, near);
-            // keep the faces that can touch a candidate tet (inside `box`)
-            std::size_t kept = 0;
-            for (std::int32_t g : near) {
-                const Tri& t = fv_[g];
-                bool apart = false;
-                for (int k = 0; k < 3 && !apart; ++k) {
-                    const double fmin = std::min({p(t[0])[k], p(t[1])[k], p(t[2])[k]});
-                    const double fmax = std::max({p(t[0])[k], p(t[1])[k], p(t[2])[k]});
-                    apart = fmax < box.lo[k] || fmin > box.hi[k];
-                }
-                if (!apart) near[kept++] = g;
-            }
-            near.resize(kept);
+            near_ready = false;
+            // a hair wider than r: the test below decides
+            adt_.query_sphere(bk.xc, r * (1.0 + 1e-9), node_ids_);
         }
-        const std::int32_t stamp = next_mark();
-        for (int i = 0; i < 3; ++i) mark_[bk.a[i]] = stamp;
-        for (std::int32_t g : near) {
-            for (std::int32_t q : fv_[g]) {
-                if (mark_[q] == stamp) continue;
-                mark_[q] = stamp;
-                const double d = (x(q) - bk.xc).norm();
-                if (!small_front && (d > r || d <= rmin)) continue;
-                if (core::orient3d(p(bk.a[0]), p(bk.a[1]), p(bk.a[2]), p(q)) != -1) continue;
-                const double eps = core::tet_skewness(bk.A[0], bk.A[1], bk.A[2], x(q));
-                if (relaxed) {
-                    centroid += x(q);
-                    ++ncent;
-                    cands.push_back({eps, d, q});
-                } else {
-                    // w: the first sphere of Eq. 11 holding q; Eq. 12 orders within it
-                    const double w = std::max(
-                        1.0, std::ceil(std::log(std::max(d / bk.h, 1e-300)) / std::log(1.1) - 1e-12));
-                    cands.push_back({w, (eps + 0.1) * d, q});
-                }
+        for (std::int32_t q : node_ids_) {
+            if (q == bk.a[0] || q == bk.a[1] || q == bk.a[2]) continue;
+            const double d = (x(q) - bk.xc).norm();
+            if (!small_front && (d > r || d <= rmin)) continue;
+            if (core::orient3d(p(bk.a[0]), p(bk.a[1]), p(bk.a[2]), p(q)) != -1) continue;
+            const double eps = core::tet_skewness(bk.A[0], bk.A[1], bk.A[2], x(q));
+            if (relaxed) {
+                centroid += x(q);
+                ++ncent;
+                cands.push_back({eps, d, q});
+            } else {
+                // w: the first sphere of Eq. 11 holding q; Eq. 12 orders within it
+                const double w = std::max(
+                    1.0, std::ceil(std::log(std::max(d / bk.h, 1e-300)) / std::log(1.1) - 1e-12));
+                cands.push_back({w, (eps + 0.1) * d, q});
             }
         }
         std::sort(cands.begin(), cands.end(), [](const Cand& l, const Cand& r2) {
@@ -869,6 +882,20 @@ bool RegionMesher::try_base(std::int32_t f, bool active_only, bool relaxed) {
             if (l.key1 != r2.key1) return l.key1 < r2.key1;
             return l.id < r2.id;
         });
+    };
+    // The front faces a validity test of the tet (base, q) needs: those whose box meets the
+    // box of the tet, from the ADT of front face boxes. A fetch also serves every later
+    // candidate inside its box (the front does not change before try_base returns), e.g. the
+    // new points of g < 1 after that of g = 1.
+    core::AdtBox fetched;
+    auto ensure_near = [&](std::int32_t q) {
+        if (near_ready) return;
+        const V3 Q = x(q);
+        if ((Q.array() >= fetched.lo.array()).all() && (Q.array() <= fetched.hi.array()).all())
+            return;
+        fetched = base_box;
+        fetched.extend(Q);
+        gather_faces(fetched, near);
     };
     const double min_vol = 1e-6 * bk.area * std::sqrt(bk.area);
     auto try_existing = [&](std::int32_t q) {
@@ -878,6 +905,7 @@ bool RegionMesher::try_base(std::int32_t f, bool active_only, bool relaxed) {
             ++stat_[2];
             return false;
         }
+        ensure_near(q);
         if (!is_valid_tet(f, bk.a[0], bk.a[1], bk.a[2], q, near)) {
             ++stat_[3];
             return false;
@@ -891,6 +919,7 @@ bool RegionMesher::try_base(std::int32_t f, bool active_only, bool relaxed) {
         bool ok = relaxed ? core::tet_signed_volume(bk.A[0], bk.A[1], bk.A[2], P) > min_vol
                           : passes_paper_tests(bk, q);
         if (!ok) ++stat_[2];
+        if (ok) ensure_near(q);
         const bool valid = ok && is_valid_tet(f, bk.a[0], bk.a[1], bk.a[2], q, near);
         if (ok && !valid) ++stat_[3];
         if (!valid) {

@@ -102,6 +102,47 @@ core::SurfaceNetwork nested_spheres(double r_in, int n_in, double r_out, int n_o
     return s;
 }
 
+/// A flat box [0, L]^2 x [0, H], region 1: a fine floor (n x n squares), a lid of two
+/// triangles spanning the whole box and fan-triangulated walls. Tets grown from the floor
+/// reach the lid far from its nodes, so the validity tests must find front faces whose nodes
+/// all lie far outside the tet.
+core::SurfaceNetwork coarse_lid_box(double L, double H, int n) {
+    core::SurfaceNetwork s;
+    auto floor_id = [&](int i, int j) { return static_cast<std::int32_t>(i * (n + 1) + j); };
+    for (int i = 0; i <= n; ++i)
+        for (int j = 0; j <= n; ++j) s.add_vertex({L * i / n, L * j / n, 0.0});
+    const std::int32_t top[4] = {s.add_vertex({0, 0, H}), s.add_vertex({L, 0, H}),
+                                 s.add_vertex({L, L, H}), s.add_vertex({0, L, H})};
+    const Vector3d centre(0.5 * L, 0.5 * L, 0.5 * H);
+    auto add = [&](std::int32_t a, std::int32_t b, std::int32_t c) {
+        const Vector3d nn = (s.point(b) - s.point(a)).cross(s.point(c) - s.point(a));
+        const Vector3d mid = (s.point(a) + s.point(b) + s.point(c)) / 3.0;
+        if (nn.dot(mid - centre) < 0) std::swap(b, c);
+        s.add_face(a, b, c, 1, 0);
+    };
+    for (int i = 0; i < n; ++i)
+        for (int j = 0; j < n; ++j) {
+            add(floor_id(i, j), floor_id(i + 1, j), floor_id(i + 1, j + 1));
+            add(floor_id(i, j), floor_id(i + 1, j + 1), floor_id(i, j + 1));
+        }
+    add(top[0], top[1], top[2]);
+    add(top[0], top[2], top[3]);
+    // walls, counter-clockwise around the floor: corner k to corner k + 1
+    const int corner[5][2] = {{0, 0}, {n, 0}, {n, n}, {0, n}, {0, 0}};
+    for (int k = 0; k < 4; ++k) {
+        std::vector<std::int32_t> b;
+        for (int m = 0; m <= n; ++m) {
+            const int i = corner[k][0] + (corner[k + 1][0] - corner[k][0]) * m / n;
+            const int j = corner[k][1] + (corner[k + 1][1] - corner[k][1]) * m / n;
+            b.push_back(floor_id(i, j));
+        }
+        const std::int32_t t0 = top[k], t1 = top[(k + 1) % 4];
+        for (int m = 0; m < n; ++m) add(b[m], b[m + 1], m < n / 2 ? t0 : t1);
+        add(b[n / 2], t1, t0);
+    }
+    return s;
+}
+
 using Key = std::array<std::int32_t, 3>;
 Key sorted_key(std::int32_t a, std::int32_t b, std::int32_t c) {
     Key k{a, b, c};
@@ -309,4 +350,14 @@ TEST_CASE("tetra output is identical for any thread count", "[tetra]") {
     CHECK(one.tets == two.tets);
     CHECK(one.region == two.region);
     CHECK(one.level == two.level);
+}
+
+TEST_CASE("tetra finds front faces far larger than the tets they stop (coarse lid)", "[tetra]") {
+    // The front faces are found by their boxes, not through nodes near the tet: a tet grown
+    // from the fine floor must not poke through the two-triangle lid.
+    const auto s = coarse_lid_box(10.0, 1.5, 10);
+    const Run r = mesh_it(s);
+    INFO("tets " << r.mesh.tet_count());
+    CHECK(validity_problem(r.mesh, s) == "");
+    CHECK(meshcheck_passes(r.mesh, s, "coarse_lid"));
 }
