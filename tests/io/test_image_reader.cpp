@@ -227,7 +227,7 @@ TEST_CASE("NIfTI .nii.gz keeps spacing, origin, rotation and labels", "[io]") {
     CHECK((marker_position(read, 1) - itk_point(image.GetPointer(), 5, 1, 3)).norm() < 1e-4);
 }
 
-TEST_CASE("MetaImage .mha keeps geometry and labels; padding is configurable", "[io]") {
+TEST_CASE("MetaImage .mha keeps geometry and labels, padding is configurable", "[io]") {
     const std::string dir = frontmesh::fixtures::temp_dir("io_mha");
     const std::string path = dir + "/labels.mha";
     const Grid grid = rotated_grid();

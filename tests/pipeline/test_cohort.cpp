@@ -106,7 +106,7 @@ TEST_CASE("read_manifest: RFC 4180 quoting, relative images, empty cells", "[pip
     CHECK_THAT(error_of(""), Catch::Contains("the manifest is empty"));
 }
 
-TEST_CASE("cohort: a failed subject is recorded, the others finish; a re-run does no work", "[pipeline]") {
+TEST_CASE("cohort: a failed subject is recorded, the others finish, a re-run does no work", "[pipeline]") {
     const std::string dir = cohort_dir("cohort_run");
     write_file(dir + "/manifest.csv", kManifest);
     const fs::path out = fs::path(dir) / "out";

@@ -207,7 +207,7 @@ TEST_CASE("a surface input enters at repair and keeps its regions", "[pipeline]"
     CHECK_THAT(bad.err, Catch::Contains("broken.off"));
 }
 
-TEST_CASE("remesh stage: 03-remesh.vtu with eta, min_angle, regions and target_size; quality", "[pipeline]") {
+TEST_CASE("remesh stage: 03-remesh.vtu with eta, min_angle, regions and target_size, and its quality", "[pipeline]") {
     const std::string dir = phantom_run_dir("run_remesh");
     const auto r = run_frontmesh("run recipe.yaml --quiet --until remesh --set remesh.edge_length=1.5", dir);
     INFO(r.err);
