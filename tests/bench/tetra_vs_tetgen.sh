@@ -1,4 +1,4 @@
-#!/bin/sh
+#!/usr/bin/env bash
 # Benchmark of the tetra stage (issue 4) against Debian's tetgen on the very same closed surface.
 # Not part of the test suite.
 #
@@ -7,7 +7,9 @@
 #   ALPHA        tetra.stretching (default 1.15)
 #   WORKDIR      scratch folder (default /tmp/tetra_vs_tetgen)
 # environment: FRONTMESH (the frontmesh executable; default build-main's), TETGEN_SWITCHES
-#   (default -pYq1.3), THREADS (frontmesh --threads, default 1: the issue's one-core figure)
+#   (default -pYq1.3; several sets separated by commas, e.g. "-pYq1.3,-pYq1.2,-pYq1.2 -O7"),
+#   THREADS (frontmesh --threads, default 1: the issue's one-core figure), REFINE (1: the
+#   frontmesh row is tetra + refine, the issue 5 comparison; default 0: tetra alone)
 #
 # Runs `frontmesh run RECIPE --from tetra --until tetra` with
 #   {input: {surface: SURFACE}, output: {dir: WORKDIR/frontmesh}, tetra: {stretching: ALPHA}}
@@ -15,7 +17,7 @@
 # checks both results with meshcheck.py --json and prints wall and CPU (user + system) time,
 # peak RSS, tets, tets/s (per wall second), quality and the frontmesh/tetgen ratios. On a
 # shared machine the CPU time is the steadier figure.
-set -eu
+set -euo pipefail
 
 SURFACE=$(realpath "${1:?usage: $0 SURFACE.vtu [ALPHA] [WORKDIR]}")
 ALPHA=${2:-1.15}
@@ -27,6 +29,9 @@ TETGEN_SWITCHES=${TETGEN_SWITCHES:--pYq1.3}
 MESHCHECK=${MESHCHECK:-/work/shared/tools/meshcheck.py}
 PY=/usr/bin/python3
 THREADS=${THREADS:-1}
+REFINE=${REFINE:-0}
+UNTIL=tetra
+[ "$REFINE" = 1 ] && UNTIL=refine
 
 rm -rf "$WORK"
 mkdir -p "$WORK/frontmesh" "$WORK/tetgen"
@@ -40,7 +45,7 @@ output:
 tetra:
   stretching: $ALPHA
 EOF
-/usr/bin/time -v "$FRONTMESH" run "$WORK/recipe.yaml" --from tetra --until tetra --threads "$THREADS" \
+/usr/bin/time -v "$FRONTMESH" run "$WORK/recipe.yaml" --from tetra --until "$UNTIL" --threads "$THREADS" \
     > "$WORK/frontmesh/log.txt" 2> "$WORK/frontmesh/time.txt" || {
     echo "frontmesh failed:"; tail -20 "$WORK/frontmesh/time.txt"; exit 1; }
 FM_MESH=$WORK/frontmesh/mesh.vtu
@@ -62,9 +67,19 @@ with open(sys.argv[2], "w") as f:
         f.write("3 %d %d %d\n" % (a, b, c))
     f.write("0\n0\n")
 EOF
-( cd "$WORK/tetgen" && /usr/bin/time -v tetgen $TETGEN_SWITCHES -Q surf.smesh \
-    > log.txt 2> time.txt ) || { echo "tetgen failed:"; tail -20 "$WORK/tetgen/time.txt"; exit 1; }
-$PY - "$WORK/tetgen/surf.1" "$WORK/tetgen/mesh.vtu" <<'EOF'
+# One run per switch set, each in its own folder (tetgen-1, tetgen-2, ...).
+IFS=',' read -r -a SWITCH_SETS <<< "$TETGEN_SWITCHES"
+TG_NAMES=""
+k=0
+for SW in "${SWITCH_SETS[@]}"; do
+    k=$((k + 1))
+    D="$WORK/tetgen-$k"
+    mkdir -p "$D"
+    cp "$WORK/tetgen/surf.smesh" "$D/"
+    echo "$SW" > "$D/switches.txt"
+    ( cd "$D" && /usr/bin/time -v tetgen $SW -Q surf.smesh > log.txt 2> time.txt ) || {
+        echo "tetgen $SW failed:"; tail -20 "$D/time.txt"; exit 1; }
+    $PY - "$D/surf.1" "$D/mesh.vtu" <<'PYEOF'
 import sys
 import meshio
 import numpy as np
@@ -80,17 +95,22 @@ first = int(nodes[0][0])
 P = np.array([[float(v) for v in r[1:4]] for r in nodes])
 T = np.array([[int(v) - first for v in r[1:5]] for r in rows(base + ".ele")], dtype=np.int64)
 meshio.write(sys.argv[2], meshio.Mesh(P, [("tetra", T)]))
-EOF
+PYEOF
+    TG_NAMES="$TG_NAMES tetgen-$k"
+done
 
 # ---- referee ------------------------------------------------------------------------------
-$PY "$MESHCHECK" "$FM_MESH" --surface "$SURFACE" --strict-surface --json "$WORK/frontmesh/check.json" \
-    > "$WORK/frontmesh/check.txt" 2>&1 && FM_OK=yes || FM_OK=NO
-$PY "$MESHCHECK" "$WORK/tetgen/mesh.vtu" --surface "$SURFACE" --strict-surface \
-    --json "$WORK/tetgen/check.json" > "$WORK/tetgen/check.txt" 2>&1 && TG_OK=yes || TG_OK=NO
+check() {  # check NAME MESH: meshcheck with the surface kept; ok.txt says whether it passed
+    if $PY "$MESHCHECK" "$2" --surface "$SURFACE" --strict-surface --json "$WORK/$1/check.json" \
+        > "$WORK/$1/check.txt" 2>&1; then echo yes > "$WORK/$1/ok.txt"; else echo NO > "$WORK/$1/ok.txt"; fi
+}
+check frontmesh "$FM_MESH"
+for T in $TG_NAMES; do check "$T" "$WORK/$T/mesh.vtu"; done
 
-$PY - "$WORK" "$FM_OK" "$TG_OK" "$ALPHA" "$TETGEN_SWITCHES" <<'EOF'
+$PY - "$WORK" "$ALPHA" "$UNTIL" frontmesh $TG_NAMES <<'PYEOF'
 import json, re, sys
-work, fm_ok, tg_ok, alpha, sw = sys.argv[1:6]
+work, alpha, until = sys.argv[1:4]
+names = sys.argv[4:]
 def timing(path):
     t = open(path).read()
     wall = re.search(r"Elapsed \(wall clock\) time \(h:mm:ss or m:ss\): (\S+)", t).group(1)
@@ -102,23 +122,31 @@ def timing(path):
         float(re.search(r"System time \(seconds\): (\S+)", t).group(1))
     return s, rss, cpu
 rows = {}
-for name, ok in (("frontmesh", fm_ok), ("tetgen", tg_ok)):
+for name in names:
     wall, rss, cpu = timing("%s/%s/time.txt" % (work, name))
     c = json.load(open("%s/%s/check.json" % (work, name)))
-    rows[name] = dict(wall=wall, cpu=cpu, rss=rss, tets=c["n_tets"], nodes=c["n_nodes"], ok=ok,
+    if name == "frontmesh":
+        label = "frontmesh %s a%s" % ("tetra" if until == "tetra" else "tetra+refine", alpha)
+    else:
+        label = "tetgen " + open("%s/%s/switches.txt" % (work, name)).read().strip()
+    rows[name] = dict(label=label, wall=wall, cpu=cpu, rss=rss, tets=c["n_tets"], nodes=c["n_nodes"],
+                      ok=open("%s/%s/ok.txt" % (work, name)).read().strip(),
                       bnd=c["boundary_faces"], skew08=100 * c["skewness"]["frac_gt_0_8"],
                       skewmean=c["skewness"]["mean"], dmin=c["dihedral"]["min_deg"],
                       d10=100 * c["dihedral"]["frac_tets_min_lt_10"])
-print("surface: %s boundary triangles; frontmesh tetra alpha %s vs tetgen %s" % (rows["frontmesh"]["bnd"], alpha, sw))
-print("%-10s %8s %8s %9s %10s %9s %10s %8s %9s %9s %8s %8s" % ("tool", "wall s", "cpu s", "peak MB",
+print("surface: %s boundary triangles" % rows["frontmesh"]["bnd"])
+print("%-30s %8s %8s %8s %10s %9s %9s %8s %9s %8s %8s %6s" % ("tool", "wall s", "cpu s", "peak MB",
       "tets", "nodes", "tets/s", "skew>.8%", "skew mean", "min dih", "<10deg%", "valid"))
-for name, r in rows.items():
-    print("%-10s %8.2f %8.2f %9.0f %10d %9d %10.0f %8.3f %9.3f %9.2f %8.3f %8s" % (
-        name, r["wall"], r["cpu"], r["rss"], r["tets"], r["nodes"], r["tets"] / max(r["wall"], 1e-9),
+for name in names:
+    r = rows[name]
+    print("%-30s %8.2f %8.2f %8.0f %10d %9d %9.0f %8.4f %9.3f %8.2f %8.4f %6s" % (
+        r["label"], r["wall"], r["cpu"], r["rss"], r["tets"], r["nodes"], r["tets"] / max(r["wall"], 1e-9),
         r["skew08"], r["skewmean"], r["dmin"], r["d10"], r["ok"]))
-f, t = rows["frontmesh"], rows["tetgen"]
-print("ratios frontmesh/tetgen: wall %.2f, cpu %.2f, peak memory %.2f, tets %.2f, tets/s %.2f" % (
-    f["wall"] / t["wall"], f["cpu"] / max(t["cpu"], 1e-9), f["rss"] / t["rss"], f["tets"] / t["tets"],
-    (f["tets"] / f["wall"]) / (t["tets"] / t["wall"])))
+f = rows["frontmesh"]
+for name in names[1:]:
+    t = rows[name]
+    print("ratios frontmesh/(%s): wall %.2f, cpu %.2f, peak memory %.2f, tets %.2f, tets/s %.2f" % (
+        t["label"], f["wall"] / t["wall"], f["cpu"] / max(t["cpu"], 1e-9), f["rss"] / t["rss"],
+        f["tets"] / t["tets"], (f["tets"] / f["wall"]) / (t["tets"] / t["wall"])))
 print("frontmesh per boundary triangle: %.2f tets, %.2f nodes" % (f["tets"] / f["bnd"], f["nodes"] / f["bnd"]))
-EOF
+PYEOF
