@@ -110,6 +110,21 @@ core::SurfaceNetwork background_from(const std::string& path, std::optional<doub
     return surface::repair(surface::extract(image, ep, ctx), rp, ctx);
 }
 
+
+// Remeshes `bg` with edge length h (0: the stage's default), prints and checks the
+// acceptance figures; FRONTMESH_REMESH_OUT=file.vtu keeps the result.
+surface::RemeshResult remesh_and_check(const std::string& what, const core::SurfaceNetwork& bg, double h) {
+    surface::RemeshParams params;
+    params.edge_length = h;
+    core::StageContext ctx;
+    const auto t0 = std::chrono::steady_clock::now();
+    auto r = surface::remesh(bg, params, ctx);
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    if (const char* out = std::getenv("FRONTMESH_REMESH_OUT")) io::write_surface_vtu(r.surface, out, {});
+    report_and_check(what, bg, r, seconds, ctx.counters().at("remesh.edge_length_mm"), ctx);
+    return r;
+}
+
 }  // namespace
 
 // Hidden ([.]): the acceptance runs of issue 3, on real data (tens of seconds each). Run them
@@ -120,15 +135,7 @@ TEST_CASE("remesh the Colin27 brain at about 80k triangles", "[remesh][e2e][.]")
     // As examples/colin27-brain.yaml: threshold 30, closing and opening of one voxel, 1.5 mm
     // blur (DESIGN-NOTES §2), specks under 30 mm^3 dropped, h = 1.55 mm.
     const auto bg = background_from(path, 30.0, env_or("FRONTMESH_REMESH_BLUR", 1.5), core::Frame::Lps);
-    surface::RemeshParams params;
-    params.edge_length = env_or("FRONTMESH_REMESH_H", 1.55);
-    core::StageContext ctx;
-    const auto t0 = std::chrono::steady_clock::now();
-    const auto r = surface::remesh(bg, params, ctx);
-    const double seconds =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    if (const char* out = std::getenv("FRONTMESH_REMESH_OUT")) io::write_surface_vtu(r.surface, out, {});
-    report_and_check("Colin27", bg, r, seconds, params.edge_length, ctx);
+    const auto r = remesh_and_check("Colin27", bg, env_or("FRONTMESH_REMESH_H", 1.55));
     CHECK(r.surface.face_count() > 60000);
     CHECK(r.surface.face_count() < 100000);
 }
@@ -137,14 +144,7 @@ TEST_CASE("remesh the AAL atlas: 116 regions, interfaces shared", "[remesh][e2e]
     const std::string path = "/usr/share/mricron/templates/aal.nii.gz";
     if (!std::filesystem::exists(path)) return;
     const auto bg = background_from(path, std::nullopt, 0.0, core::Frame::Ras);
-    surface::RemeshParams params;
-    params.edge_length = env_or("FRONTMESH_REMESH_AAL_H", 0.0);
-    core::StageContext ctx;
-    const auto t0 = std::chrono::steady_clock::now();
-    const auto r = surface::remesh(bg, params, ctx);
-    const double seconds =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    report_and_check("AAL", bg, r, seconds, ctx.counters().at("remesh.edge_length_mm"), ctx);
+    const auto r = remesh_and_check("AAL", bg, env_or("FRONTMESH_REMESH_AAL_H", 0.0));
     CHECK(core::region_labels(r.surface).size() == 116);
 }
 
@@ -154,14 +154,8 @@ TEST_CASE("remesh the nested three-region phantom", "[remesh][e2e][.]") {
     const core::LabelImage image = fixtures::nested_ellipsoids_image(1.0, 1.0);
     core::StageContext ectx;
     const auto bg = surface::repair(surface::extract(image, {}, ectx), {}, ectx);
-    surface::RemeshParams params;
-    params.edge_length = env_or("FRONTMESH_REMESH_PHANTOM_H", 1.5);
-    core::StageContext ctx;
-    const auto t0 = std::chrono::steady_clock::now();
-    const auto r = surface::remesh(bg, params, ctx);
-    const double seconds =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    report_and_check("phantom", bg, r, seconds, params.edge_length, ctx);
+    const double h = env_or("FRONTMESH_REMESH_PHANTOM_H", 1.5);
+    const auto r = remesh_and_check("phantom", bg, h);
     CHECK(core::region_labels(r.surface).size() == 3);
-    CHECK(surface::edge_length_fraction(r.surface, 0.7 * params.edge_length, 1.4 * params.edge_length) >= 0.95);
+    CHECK(surface::edge_length_fraction(r.surface, 0.7 * h, 1.4 * h) >= 0.95);
 }
