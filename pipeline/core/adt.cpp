@@ -13,10 +13,10 @@ namespace {
 
 constexpr double infinity = std::numeric_limits<double>::infinity();
 
-// A node's region of key space, with the node. Bounds lo[k] <= key k <= hi[k] hold for the
-// exact (unclamped) keys of the node's item and of every item below it. Keys are clamped to
-// the domain only to choose a branch, so a side of the region still on the domain boundary
-// bounds nothing and is stored as -inf / +inf; the split value is rebuilt from the domain.
+// A node's region of key space, with the node, as insertion walks it (queries prune with the
+// nodes' stored subtree bounds instead). Keys are clamped to the domain only to choose a
+// branch, so a side of the region still on the domain boundary is stored as -inf / +inf; the
+// split value is rebuilt from the domain.
 template <int K>
 struct Frame {
     std::int32_t node;
@@ -25,32 +25,8 @@ struct Frame {
     double hi[K];
 };
 
-// Each thread reuses its own stack, so concurrent const queries share nothing and a query
-// allocates only while the stack grows past its previous maximum depth.
-template <int K>
-std::vector<Frame<K>>& traversal_stack() {
-    thread_local std::vector<Frame<K>> stack;
-    return stack;
-}
-
 // Axis (0..2) of key coordinate k: keys 0..2 are the box minima, keys 3..5 the maxima.
 constexpr int axis_of(int k) { return k < 3 ? k : k - 3; }
-
-// Key coordinate that bounds the item maxima on axis a (for points the maxima are the minima).
-template <int K>
-constexpr int max_key(int a) {
-    return K == 6 ? a + 3 : a;
-}
-
-// For points every key bounds both the minimum and the maximum on its axis.
-template <int K>
-constexpr bool is_min_key(int k) {
-    return K == 3 || k < 3;
-}
-template <int K>
-constexpr bool is_max_key(int k) {
-    return K == 3 || k >= 3;
-}
 
 template <int K>
 Frame<K> root_frame(std::int32_t root) {
@@ -64,9 +40,8 @@ Frame<K> root_frame(std::int32_t root) {
     return f;
 }
 
-// Bisection value of the node's region in coordinate f.k. Insertion and every query use this
-// one function, so they take identical branch decisions. 0.5 lo + 0.5 hi cannot overflow and
-// lies in [lo, hi].
+// Bisection value of the node's region in coordinate f.k. 0.5 lo + 0.5 hi cannot overflow
+// and lies in [lo, hi].
 template <int K>
 double split_value(const Frame<K>& f, const AdtBox& domain) {
     const int a = axis_of(f.k);
@@ -89,28 +64,6 @@ void descend(Frame<K>& f, int side, double split, std::int32_t child, const AdtB
     f.k = (f.k + 1) % K;
 }
 
-// Lower bound of squared_distance(item box, p) over the items of a region. The arithmetic
-// mirrors squared_distance term by term (max is exact, rounding is monotone), so the bound
-// never exceeds the computed distance of an item in the region and pruning with it is exact.
-template <int K>
-double lower_bound_distance2(const Frame<K>& f, const Eigen::Vector3d& p) {
-    double d2 = 0.0;
-    for (int a = 0; a < 3; ++a) {
-        const double d = std::max(std::max(f.lo[a] - p[a], p[a] - f.hi[max_key<K>(a)]), 0.0);
-        d2 += d * d;
-    }
-    return d2;
-}
-
-// True when the split that made child frame `c` (coordinate k, side) only moved a bound of the
-// region up to or past p: the child's lower_bound_distance2 to p then equals its parent's.
-template <int K>
-bool has_parent_lower_bound(const Frame<K>& c, int k, int side, const Eigen::Vector3d& p) {
-    const int a = axis_of(k);
-    if (side == 0) return !is_max_key<K>(k) || !(c.hi[k] < p[a]);
-    return !is_min_key<K>(k) || !(c.lo[k] > p[a]);
-}
-
 // squared_distance of a stored key (lo = key[0..2], hi = key[3..5]) to p; the same value.
 inline double key_distance2(const double* key, const Eigen::Vector3d& p) {
     double d2 = 0.0;
@@ -121,43 +74,64 @@ inline double key_distance2(const double* key, const Eigen::Vector3d& p) {
     return d2;
 }
 
-// Depth-first walk from `root`. `visit(node)` runs on every node reached; a child is reached
-// only when `keep(child_frame, split_key, side)` accepts its region. The walk continues into
-// the first child in place and leaves the second on the stack, so the stack holds at most one
-// frame per level.
-template <int K, class Nodes, class Keep, class Visit>
-void depth_first(const Nodes& nodes, std::int32_t root, const AdtBox& domain, Keep&& keep,
-                 Visit&& visit) {
-    if (root < 0) return;
-    auto& stack = traversal_stack<K>();
+// The largest float <= x and the smallest float >= x (infinite beyond the float range), so a
+// float box built from them contains the double box it stands for.
+float float_below(double x) {
+    constexpr double max_float = std::numeric_limits<float>::max();
+    if (x > max_float) return std::numeric_limits<float>::max();
+    if (!(x >= -max_float)) return -std::numeric_limits<float>::infinity();
+    float f = static_cast<float>(x);
+    if (static_cast<double>(f) > x) f = std::nextafter(f, -std::numeric_limits<float>::infinity());
+    return f;
+}
+float float_above(double x) {
+    constexpr double max_float = std::numeric_limits<float>::max();
+    if (x < -max_float) return -std::numeric_limits<float>::max();
+    if (!(x <= max_float)) return std::numeric_limits<float>::infinity();
+    float f = static_cast<float>(x);
+    if (static_cast<double>(f) < x) f = std::nextafter(f, std::numeric_limits<float>::infinity());
+    return f;
+}
+
+// Lower bound of squared_distance(item box, p) over the items of a subtree, from its stored
+// bounds. The arithmetic mirrors key_distance2 term by term (the bounds enclose every item
+// box, max is exact and rounding is monotone), so the bound never exceeds the computed
+// distance of an item below and pruning with it is exact.
+template <class Node>
+double bound_distance2(const Node& n, const Eigen::Vector3d& p) {
+    double d2 = 0.0;
+    for (int a = 0; a < 3; ++a) {
+        const double d = std::max(std::max(static_cast<double>(n.bound_lo[a]) - p[a],
+                                           p[a] - static_cast<double>(n.bound_hi[a])),
+                                  0.0);
+        d2 += d * d;
+    }
+    return d2;
+}
+
+// Depth-first walk over the subtrees whose stored bounds `meets` accepts; `visit(node)` runs
+// on the node of every such subtree. The walk goes on into the first child in place and
+// leaves the second on a per-thread stack (at most one entry per level), so concurrent const
+// queries share nothing and a query allocates only while the stack outgrows its past depth.
+template <class Nodes, class Meets, class Visit>
+void bounded_walk(const Nodes& nodes, std::int32_t root, Meets&& meets, Visit&& visit) {
+    if (root < 0 || !meets(nodes[static_cast<std::size_t>(root)])) return;
+    thread_local std::vector<std::int32_t> stack;
     stack.clear();
-    Frame<K> f = root_frame<K>(root);
+    std::int32_t node = root;
     while (true) {
-        const auto& n = nodes[static_cast<std::size_t>(f.node)];
+        const auto& n = nodes[static_cast<std::size_t>(node)];
         visit(n);
-        bool has_next = false;
-        if (n.child[0] >= 0 || n.child[1] >= 0) {
-            const double split = split_value(f, domain);
-            const int k = f.k;
-            if (n.child[1] >= 0) {
-                Frame<K>& c = stack.emplace_back(f);
-                descend(c, 1, split, n.child[1], domain);
-                if (!keep(c, k, 1)) stack.pop_back();
-            }
-            if (n.child[0] >= 0) {
-                Frame<K> c = f;
-                descend(c, 0, split, n.child[0], domain);
-                if (keep(c, k, 0)) {
-                    f = c;
-                    has_next = true;
-                }
-            }
+        const std::int32_t c0 = n.child[0];
+        const std::int32_t c1 = n.child[1];
+        if (c1 >= 0 && meets(nodes[static_cast<std::size_t>(c1)])) stack.push_back(c1);
+        if (c0 >= 0 && meets(nodes[static_cast<std::size_t>(c0)])) {
+            node = c0;
+            continue;
         }
-        if (!has_next) {
-            if (stack.empty()) return;
-            f = stack.back();
-            stack.pop_back();
-        }
+        if (stack.empty()) return;
+        node = stack.back();
+        stack.pop_back();
     }
 }
 
@@ -167,6 +141,7 @@ bool has_nan(const Eigen::Vector3d& v) { return v.array().isNaN().any(); }
 
 Adt::Adt(const AdtBox& domain, AdtItems items)
     : domain_(domain), key_dim_(items == AdtItems::points ? 3 : 6) {
+    static_assert(sizeof(Node) == 88, "the node size is documented in adt.h");
     if (!domain.is_valid())
         FM_THROW(InputError, "ADT: root domain must be finite with lo <= hi on every axis");
 }
@@ -201,6 +176,8 @@ void Adt::insert(std::int32_t id, const AdtBox& box) {
     for (int a = 0; a < 3; ++a) {
         n.key[a] = box.lo[a];
         n.key[a + 3] = box.hi[a];
+        n.bound_lo[a] = float_below(box.lo[a]);
+        n.bound_hi[a] = float_above(box.hi[a]);
     }
     n.id = id;
     n.parent = -1;
@@ -218,12 +195,16 @@ void Adt::insert(std::int32_t id, const AdtBox& box) {
 
 // Bonet & Peraire: descend from the root bisecting the region in key coordinate depth mod K
 // and hang the node at the first empty child. Keys outside the domain are clamped onto it.
+// Every node on the way gets its subtree bounds widened to the new item's.
 template <int K>
 void Adt::insert_key(std::int32_t node) {
     if (root_ < 0) {
         root_ = node;
         return;
     }
+    const Node& item = nodes_[static_cast<std::size_t>(node)];
+    const float item_lo[3] = {item.bound_lo[0], item.bound_lo[1], item.bound_lo[2]};
+    const float item_hi[3] = {item.bound_hi[0], item.bound_hi[1], item.bound_hi[2]};
     double key[K];
     for (int k = 0; k < K; ++k) {
         const int a = axis_of(k);
@@ -235,6 +216,10 @@ void Adt::insert_key(std::int32_t node) {
         const double split = split_value(f, domain_);
         const int side = key[f.k] < split ? 0 : 1;
         Node& parent = nodes_[static_cast<std::size_t>(f.node)];
+        for (int a = 0; a < 3; ++a) {  // written only when they grow: fewer dirty lines
+            if (item_lo[a] < parent.bound_lo[a]) parent.bound_lo[a] = item_lo[a];
+            if (item_hi[a] > parent.bound_hi[a]) parent.bound_hi[a] = item_hi[a];
+        }
         if (parent.child[side] < 0) {
             parent.child[side] = node;
             nodes_[static_cast<std::size_t>(node)].parent = f.node;
@@ -281,6 +266,8 @@ bool Adt::remove(std::int32_t id) {
     l.child[1] = -1;
     free_head_ = leaf;
     --size_;
+    // The subtree bounds on the path are left as they are: they still enclose every item
+    // below, only more loosely; compact() makes them exact again.
     return true;
 }
 
@@ -331,24 +318,37 @@ void Adt::compact() {
     nodes_ = std::move(ordered);
     root_ = nodes_.empty() ? -1 : 0;
     free_head_ = -1;
+    // Exact subtree bounds: in pre-order every child comes after its parent.
+    for (std::size_t i = nodes_.size(); i-- > 0;) {
+        Node& n = nodes_[i];
+        for (int a = 0; a < 3; ++a) {
+            n.bound_lo[a] = float_below(n.key[a]);
+            n.bound_hi[a] = float_above(n.key[a + 3]);
+        }
+        for (const std::int32_t child : n.child) {
+            if (child < 0) continue;
+            const Node& c = nodes_[static_cast<std::size_t>(child)];
+            for (int a = 0; a < 3; ++a) {
+                n.bound_lo[a] = std::min(n.bound_lo[a], c.bound_lo[a]);
+                n.bound_hi[a] = std::max(n.bound_hi[a], c.bound_hi[a]);
+            }
+        }
+    }
 }
 
-template <int K>
 void Adt::collect_box(const AdtBox& query, std::vector<std::int32_t>& out_ids) const {
-    // A child differs from its parent in one key bound, so only that bound is tested: items
-    // with min > query.hi or max < query.lo cannot intersect.
-    auto keep = [&](const Frame<K>& c, int split, int side) {
-        const int a = axis_of(split);
-        if (side == 0 && is_max_key<K>(split)) return !(c.hi[split] < query.lo[a]);
-        if (side == 1 && is_min_key<K>(split)) return !(c.lo[split] > query.hi[a]);
-        return true;
+    // A subtree is skipped when its bounds miss the query; the items of the rest are tested.
+    auto meets = [&](const Node& n) {
+        return n.bound_lo[0] <= query.hi[0] && n.bound_lo[1] <= query.hi[1] &&
+               n.bound_lo[2] <= query.hi[2] && n.bound_hi[0] >= query.lo[0] &&
+               n.bound_hi[1] >= query.lo[1] && n.bound_hi[2] >= query.lo[2];
     };
     auto visit = [&](const Node& n) {
         if (n.key[0] <= query.hi[0] && n.key[1] <= query.hi[1] && n.key[2] <= query.hi[2] &&
             n.key[3] >= query.lo[0] && n.key[4] >= query.lo[1] && n.key[5] >= query.lo[2])
             out_ids.push_back(n.id);
     };
-    depth_first<K>(nodes_, root_, domain_, keep, visit);
+    bounded_walk(nodes_, root_, meets, visit);
 }
 
 void Adt::query_box(const AdtBox& query, std::vector<std::int32_t>& out_ids) const {
@@ -356,25 +356,17 @@ void Adt::query_box(const AdtBox& query, std::vector<std::int32_t>& out_ids) con
     if (has_nan(query.lo) || has_nan(query.hi))
         FM_THROW(InputError, "ADT: query box has a NaN coordinate");
     if ((query.lo.array() > query.hi.array()).any()) return;
-    if (key_dim_ == 3)
-        collect_box<3>(query, out_ids);
-    else
-        collect_box<6>(query, out_ids);
+    collect_box(query, out_ids);
     std::sort(out_ids.begin(), out_ids.end());
 }
 
-template <int K>
 void Adt::collect_sphere(const Eigen::Vector3d& center, double radius2,
                          std::vector<std::int32_t>& out_ids) const {
-    // A child's bound is recomputed only when the split cut the region on the far side.
-    auto keep = [&](const Frame<K>& c, int k, int side) {
-        return has_parent_lower_bound(c, k, side, center) ||
-               lower_bound_distance2<K>(c, center) <= radius2;
-    };
+    auto meets = [&](const Node& n) { return bound_distance2(n, center) <= radius2; };
     auto visit = [&](const Node& n) {
         if (key_distance2(n.key, center) <= radius2) out_ids.push_back(n.id);
     };
-    depth_first<K>(nodes_, root_, domain_, keep, visit);
+    bounded_walk(nodes_, root_, meets, visit);
 }
 
 void Adt::query_sphere(const Eigen::Vector3d& center, double radius,
@@ -383,10 +375,7 @@ void Adt::query_sphere(const Eigen::Vector3d& center, double radius,
     if (!center.allFinite() || std::isnan(radius))
         FM_THROW(InputError, "ADT: sphere query has a non-finite centre or a NaN radius");
     if (radius < 0.0) return;
-    if (key_dim_ == 3)
-        collect_sphere<3>(center, radius * radius, out_ids);
-    else
-        collect_sphere<6>(center, radius * radius, out_ids);
+    collect_sphere(center, radius * radius, out_ids);
     std::sort(out_ids.begin(), out_ids.end());
 }
 
@@ -399,20 +388,23 @@ bool closer(const AdtNeighbor& a, const AdtNeighbor& b) {
 
 }  // namespace
 
-// Depth-first branch and bound keeping the k best items in a max-heap under `closer`. The
-// child on the query's side of the split is visited first; a region is skipped only when its
-// lower bound exceeds the k-th best distance strictly, so equal distances with smaller ids
-// are still found.
-template <int K>
+// Depth-first branch and bound keeping the k best items in a max-heap under `closer`. Of two
+// children the one whose bounds lie nearer to p is visited first; a subtree is skipped only
+// when the lower bound of its bounds exceeds the k-th best distance strictly, so equal
+// distances with smaller ids are still found.
 void Adt::collect_nearest(const Eigen::Vector3d& p, std::size_t k,
                           std::vector<AdtNeighbor>& heap) const {
     if (root_ < 0 || k == 0) return;
     auto bound = [&] { return heap.size() < k ? infinity : heap.front().distance2; };
-    auto& stack = traversal_stack<K>();
+    struct Waiting {
+        std::int32_t node;
+        double distance2;  // lower bound over the subtree
+    };
+    thread_local std::vector<Waiting> stack;  // per thread, at most one entry per level
     stack.clear();
-    Frame<K> f = root_frame<K>(root_);
+    std::int32_t node = root_;
     while (true) {
-        const Node& n = nodes_[static_cast<std::size_t>(f.node)];
+        const Node& n = nodes_[static_cast<std::size_t>(node)];
         const AdtNeighbor candidate{n.id, key_distance2(n.key, p)};
         if (heap.size() < k) {
             heap.push_back(candidate);
@@ -423,31 +415,24 @@ void Adt::collect_nearest(const Eigen::Vector3d& p, std::size_t k,
             std::push_heap(heap.begin(), heap.end(), closer);
         }
 
-        // The child on the query's side of the split continues in place, the other waits.
-        bool has_next = false;
-        if (n.child[0] >= 0 || n.child[1] >= 0) {
-            const double split = split_value(f, domain_);
-            const int a = axis_of(f.k);
-            const int near = std::clamp(p[a], domain_.lo[a], domain_.hi[a]) < split ? 0 : 1;
-            if (n.child[1 - near] >= 0) {
-                Frame<K>& c = stack.emplace_back(f);
-                descend(c, 1 - near, split, n.child[1 - near], domain_);
-                if (lower_bound_distance2<K>(c, p) > bound()) stack.pop_back();
-            }
-            if (n.child[near] >= 0) {
-                Frame<K> c = f;
-                descend(c, near, split, n.child[near], domain_);
-                if (lower_bound_distance2<K>(c, p) <= bound()) {
-                    f = c;
-                    has_next = true;
-                }
-            }
+        // The nearer child continues in place, the other waits with its bound.
+        Waiting next[2];
+        int count = 0;
+        for (const std::int32_t child : n.child) {
+            if (child < 0) continue;
+            const double d2 = bound_distance2(nodes_[static_cast<std::size_t>(child)], p);
+            if (d2 <= bound()) next[count++] = {child, d2};
         }
-        // A waiting region is dropped when the best distances shrank below its bound.
+        if (count == 2 && next[1].distance2 < next[0].distance2) std::swap(next[0], next[1]);
+        if (count == 2) stack.push_back(next[1]);
+        bool has_next = count > 0;
+        if (has_next) node = next[0].node;
+        // A waiting subtree is dropped when the best distances shrank below its bound.
         while (!has_next && !stack.empty()) {
-            f = stack.back();
+            const Waiting w = stack.back();
             stack.pop_back();
-            has_next = lower_bound_distance2<K>(f, p) <= bound();
+            has_next = w.distance2 <= bound();
+            node = w.node;
         }
         if (!has_next) return;
     }
@@ -465,10 +450,7 @@ void Adt::nearest_k(const Eigen::Vector3d& p, std::int32_t k, std::vector<AdtNei
     if (k <= 0) return;
     const std::size_t count = static_cast<std::size_t>(std::min(k, size_));
     out.reserve(count);
-    if (key_dim_ == 3)
-        collect_nearest<3>(p, count, out);
-    else
-        collect_nearest<6>(p, count, out);
+    collect_nearest(p, count, out);
     std::sort_heap(out.begin(), out.end(), closer);
 }
 

@@ -8,9 +8,10 @@
 // bisects its region of key space in one key coordinate, the coordinate alternating with the
 // depth. For boxes the key space is 6-D; for points (built with AdtItems::points) it is the
 // 3-D point itself, a shallower tree (depth 25 instead of 42 for 1M random points). Both use
-// the same code: the key dimension is the only difference. A box overlaps a query box only if
-// min <= query.max and max >= query.min, so whole half-spaces of the 6-D key space are pruned
-// during traversal.
+// the same code: the key dimension is the only difference. Insertion places items by their
+// keys; queries prune with a bounding box stored per node, the union of the item boxes in its
+// subtree (tighter than the node's key-space region, which it always lies within), so a
+// subtree whose items all miss the query region is skipped whole.
 //
 // The root region is a fixed domain given at construction. Items outside it are allowed:
 // their key is clamped to the domain to choose a branch, the exact box is kept for the tests,
@@ -80,17 +81,21 @@ struct AdtNeighbor {
 /// tree is agnostic to their kind), with insertion, O(depth) removal and box, sphere and
 /// nearest queries.
 ///
-/// Memory: one 64-byte node per live item (6 doubles + id, parent and two children as
-/// int32) plus a 4-byte id->node entry per id value up to the largest id: about 68 MB per
-/// million items with dense ids (vector growth may add up to 2x unless `reserve` is used).
-/// Removed nodes go to a free list and are reused, so the pool never exceeds the largest
-/// number of items alive at once. Ids index the id->node table directly: keep them dense.
+/// Memory: one 88-byte node per live item (6 doubles, the subtree bounds as 6 floats, id,
+/// parent and two children as int32) plus a 4-byte id->node entry per id value up to the
+/// largest id: about 92 MB per million items with dense ids (vector growth may add up to 2x
+/// unless `reserve` is used). Removed nodes go to a free list and are reused, so the pool
+/// never exceeds the largest number of items alive at once. Ids index the id->node table
+/// directly: keep them dense.
 ///
 /// Depth is O(log n) for spread-out items; k items with identical keys form a chain of
 /// length k (a property of the ADT), so queries near them cost O(k). Traversals are
-/// iterative, with a per-thread stack of at most one region (56 B for points, 104 B for
-/// boxes) per level. Nodes live in insertion order; `compact` reorders them depth-first,
-/// which speeds up queries on trees larger than the caches.
+/// iterative, with a per-thread stack of at most one node index (16 B for nearest) per
+/// level. Subtree bounds are widened on insert and kept on remove: they stay conservative
+/// (never smaller than the items below; within the node's key-space region up to float
+/// rounding) but may be looser than exact until `compact`, which recomputes them. Nodes live
+/// in insertion order; `compact` reorders them depth-first, which speeds up queries on trees
+/// larger than the caches.
 ///
 /// Thread safety: const member functions may run concurrently with each other (each thread
 /// uses its own traversal stack); any mutation needs exclusive access.
@@ -140,7 +145,8 @@ public:
     /// query result stay the same; queries then read memory mostly in sequence instead of in
     /// insertion order, which matters once the pool outgrows the caches (about 2x faster
     /// sphere queries on 1M random points). Call after a bulk insertion or a large removal.
-    /// Cost O(pool_size()), temporary memory 68 B per node.
+    /// Also recomputes every node's subtree bounds exactly. Cost O(pool_size()), temporary
+    /// memory 92 B per node.
     void compact();
 
     /// Ids of the items whose box intersects the closed box `query`, in increasing id order
@@ -178,10 +184,15 @@ public:
     std::int32_t max_depth() const;
 
 private:
-    // 64 bytes: one cache line. key = (lo, hi) of the item; parent -1 at the root;
-    // child[0] doubles as the free-list link of a free node (id == -1).
+    // 88 bytes. key = (lo, hi) of the item; bound_lo/bound_hi enclose the boxes of every item
+    // in the node's subtree (the node's own included), rounded outward to float: widened on
+    // insert, left as they are on remove (still enclosing), exact after compact(); queries
+    // skip a subtree whose bounds miss them. parent -1 at the root; child[0] doubles as the
+    // free-list link of a free node (id == -1).
     struct Node {
         double key[6];
+        float bound_lo[3];
+        float bound_hi[3];
         std::int32_t id;
         std::int32_t parent;
         std::int32_t child[2];
@@ -189,12 +200,9 @@ private:
 
     template <int K>
     void insert_key(std::int32_t node);
-    template <int K>
     void collect_box(const AdtBox& query, std::vector<std::int32_t>& out_ids) const;
-    template <int K>
     void collect_sphere(const Eigen::Vector3d& center, double radius2,
                         std::vector<std::int32_t>& out_ids) const;
-    template <int K>
     void collect_nearest(const Eigen::Vector3d& p, std::size_t k,
                          std::vector<AdtNeighbor>& heap) const;
     std::int32_t allocate_node();

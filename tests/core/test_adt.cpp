@@ -3,6 +3,7 @@
 #include <cstdint>
 #include <limits>
 #include <random>
+#include <utility>
 #include <vector>
 
 #include <tbb/parallel_for.h>
@@ -335,6 +336,196 @@ TEST_CASE("ADT stays exact and bounded under insert/remove churn", "[core]") {
         adt.insert(7, Vector3d(0.3, 0.3, 0.3));
         CHECK(adt.nearest(Vector3d(0.5, 0.5, 0.5)).id == 7);
         CHECK(adt.pool_size() <= max_live);
+    }
+}
+
+namespace {
+
+// Box and sphere queries exactly on the boxes of `ids` (live or removed): zero-size boxes at
+// their corners, the boxes themselves and spheres through them, against brute force. Queries
+// that graze an item catch subtree bounds that are too tight by a rounding step.
+void check_queries_at(const Adt& adt, const Reference& ref, const std::vector<std::int32_t>& ids) {
+    std::vector<std::int32_t> got;
+    for (const std::int32_t id : ids) {
+        const AdtBox& b = ref.boxes[static_cast<std::size_t>(id)];
+        for (const AdtBox& q : {AdtBox{b.lo, b.lo}, AdtBox{b.hi, b.hi}, b}) {
+            adt.query_box(q, got);
+            REQUIRE(got == brute_box(ref, q));
+        }
+        const double r = 0.5 * (b.hi - b.lo).norm();
+        adt.query_sphere(b.hi, 0.0, got);
+        REQUIRE(got == brute_sphere(ref, b.hi, 0.0));
+        adt.query_sphere(0.5 * (b.lo + b.hi), r, got);
+        REQUIRE(got == brute_sphere(ref, 0.5 * (b.lo + b.hi), r));
+    }
+}
+
+}  // namespace
+
+TEST_CASE("ADT queries stay exact under interleaved inserts and removals", "[core]") {
+    for (const AdtItems kind : {AdtItems::points, AdtItems::boxes}) {
+        std::mt19937_64 rng(kind == AdtItems::points ? 31 : 32);
+        std::uniform_real_distribution<double> u(0.0, 1.0);
+        Adt adt(unit_box, kind);
+        Reference ref;
+        std::vector<std::int32_t> live, removed;
+        std::int32_t next_id = 0;
+        auto make = [&](double lo, double hi) {
+            return kind == AdtItems::points ? AdtBox::of_point(random_point(rng, lo, hi))
+                                            : random_box(rng, lo, hi);
+        };
+        auto insert = [&](const AdtBox& b) {
+            adt.insert(next_id, b);
+            ref.insert(next_id, b);
+            live.push_back(next_id++);
+        };
+        auto remove_random = [&] {
+            const auto at = static_cast<std::size_t>(u(rng) * static_cast<double>(live.size()));
+            const std::int32_t id = live[at];
+            live[at] = live.back();
+            live.pop_back();
+            REQUIRE(adt.remove(id));
+            ref.remove(id);
+            removed.push_back(id);
+        };
+        auto check = [&](int queries) {
+            REQUIRE(adt.size() == static_cast<std::int32_t>(live.size()));
+            check_queries(adt, ref, rng, queries, -0.2, 1.2, 0.15);
+            std::vector<std::int32_t> sample;
+            for (int i = 0; i < 20 && !live.empty(); ++i)
+                sample.push_back(live[static_cast<std::size_t>(u(rng) * live.size())]);
+            for (int i = 0; i < 20 && !removed.empty(); ++i)
+                sample.push_back(removed[static_cast<std::size_t>(u(rng) * removed.size())]);
+            check_queries_at(adt, ref, sample);
+            std::vector<Vector3d> probes;
+            for (int i = 0; i < 5; ++i) probes.push_back(random_point(rng, -0.3, 1.3));
+            check_nearest(adt, ref, probes);
+        };
+
+        // Items far outside the domain, beyond the float range included: their bounds round
+        // outward to the largest float or to infinity.
+        for (const double far : {1e300, -1e300, 3.5e38, -3.5e38, 1e-40}) {
+            insert(AdtBox::of_point(Vector3d(far, 0.5, -far)));
+            if (kind == AdtItems::boxes)
+                insert(AdtBox{Vector3d(-std::abs(far), 0.1, 0.2),
+                              Vector3d(0.3, std::max(std::abs(far), 1.0), 0.4)});
+        }
+        // Growth: 3 inserts for each removal.
+        for (int op = 0; op < 8000; ++op) {
+            if (u(rng) < 0.75 || live.empty())
+                insert(make(-0.1, 1.1));
+            else
+                remove_random();
+            if (op % 1000 == 999) check(10);
+        }
+        // Shrink to a few percent, a few inserts in between; a cluster is inserted and then
+        // emptied again, leaving loose bounds behind.
+        for (int i = 0; i < 300; ++i) insert(make(0.80, 0.85));
+        for (int op = 0; live.size() > 150; ++op) {
+            if (u(rng) < 0.1)
+                insert(make(-0.1, 1.1));
+            else
+                remove_random();
+            if (op % 1000 == 999) check(10);
+        }
+        check(100);
+        // Down to a single item, then empty.
+        while (live.size() > 1) remove_random();
+        check(20);
+        remove_random();
+        check(5);
+        CHECK(adt.is_empty());
+        // Regrowth reuses the freed nodes, whose old bounds must not leak.
+        for (int i = 0; i < 2000; ++i) insert(make(0.2, 0.4));
+        check(50);
+    }
+}
+
+TEST_CASE("ADT compact keeps every query result and exact bounds", "[core]") {
+    for (const AdtItems kind : {AdtItems::points, AdtItems::boxes}) {
+        std::mt19937_64 rng(kind == AdtItems::points ? 41 : 42);
+        std::uniform_real_distribution<double> u(0.0, 1.0);
+        Adt adt(unit_box, kind);
+        Reference ref;
+        const std::int32_t n = 20000;
+        for (std::int32_t id = 0; id < n; ++id) {
+            const AdtBox b = kind == AdtItems::points
+                                 ? AdtBox::of_point(random_point(rng, -0.1, 1.1))
+                                 : random_box(rng, -0.1, 1.1);
+            adt.insert(id, b);
+            ref.insert(id, b);
+        }
+        // Remove 90%, leaving loose bounds, then compare results before and after compact.
+        for (std::int32_t id = 0; id < n; ++id)
+            if (u(rng) < 0.9) {
+                REQUIRE(adt.remove(id));
+                ref.remove(id);
+            }
+        std::vector<AdtBox> boxes;
+        std::vector<Vector3d> centres;
+        std::vector<double> radii;
+        for (int q = 0; q < 300; ++q) {
+            const Vector3d c = random_point(rng, -0.2, 1.2);
+            const double r = 0.1 * u(rng);
+            boxes.push_back({c.array() - r, c.array() + 0.5 * r});
+            centres.push_back(c);
+            radii.push_back(r);
+        }
+        auto run = [&] {
+            std::vector<std::vector<std::int32_t>> ids;
+            std::vector<std::vector<AdtNeighbor>> near;
+            std::vector<std::int32_t> got;
+            std::vector<AdtNeighbor> got_k;
+            for (std::size_t q = 0; q < boxes.size(); ++q) {
+                adt.query_box(boxes[q], got);
+                ids.push_back(got);
+                adt.query_sphere(centres[q], radii[q], got);
+                ids.push_back(got);
+                adt.nearest_k(centres[q], 9, got_k);
+                near.push_back(got_k);
+            }
+            return std::make_pair(ids, near);
+        };
+        const auto before = run();
+        const std::int32_t depth = adt.max_depth();
+        adt.compact();
+        CHECK(adt.pool_size() == adt.size());
+        CHECK(adt.max_depth() == depth);
+        const auto after = run();
+        REQUIRE(after.first == before.first);
+        REQUIRE(after.second.size() == before.second.size());
+        for (std::size_t q = 0; q < after.second.size(); ++q) {
+            REQUIRE(after.second[q].size() == before.second[q].size());
+            for (std::size_t i = 0; i < after.second[q].size(); ++i) {
+                REQUIRE(after.second[q][i].id == before.second[q][i].id);
+                REQUIRE(after.second[q][i].distance2 == before.second[q][i].distance2);
+            }
+        }
+        for (std::size_t q = 0; q < boxes.size(); ++q) {
+            REQUIRE(before.first[2 * q] == brute_box(ref, boxes[q]));
+            REQUIRE(before.first[2 * q + 1] == brute_sphere(ref, centres[q], radii[q]));
+        }
+        std::vector<std::int32_t> sample;
+        for (std::int32_t id = 0; id < n; id += 37) sample.push_back(id);  // live and removed
+        check_queries_at(adt, ref, sample);
+        check_nearest(adt, ref, centres);
+        // Churn after compaction stays exact.
+        for (int op = 0; op < 5000; ++op) {
+            const auto id = static_cast<std::int32_t>(u(rng) * n);
+            if (ref.has(id)) {
+                REQUIRE(adt.remove(id));
+                ref.remove(id);
+            } else {
+                const AdtBox b = kind == AdtItems::points
+                                     ? AdtBox::of_point(random_point(rng, -0.1, 1.1))
+                                     : random_box(rng, -0.1, 1.1);
+                adt.insert(id, b);
+                ref.insert(id, b);
+            }
+        }
+        check_queries(adt, ref, rng, 100, -0.2, 1.2, 0.1);
+        check_queries_at(adt, ref, sample);
+        check_nearest(adt, ref, centres);
     }
 }
 
