@@ -26,15 +26,16 @@ double triangle_skewness(const Eigen::Vector3d& a, const Eigen::Vector3d& b,
 
 double triangle_min_angle_deg(const Eigen::Vector3d& a, const Eigen::Vector3d& b,
                               const Eigen::Vector3d& c) {
+    // The smallest angle lies opposite the shortest side (law of sines): one atan2, at the
+    // vertex i opposite side (i + 1, i + 2).
     const std::array<Eigen::Vector3d, 3> p{a, b, c};
-    double smallest = 180.0;
-    for (int i = 0; i < 3; ++i) {
-        const Eigen::Vector3d u = p[(i + 1) % 3] - p[i];
-        const Eigen::Vector3d v = p[(i + 2) % 3] - p[i];
-        const double angle = std::atan2(u.cross(v).norm(), u.dot(v));
-        smallest = std::min(smallest, angle * 180.0 / std::numbers::pi);
-    }
-    return smallest;
+    const double side2[3] = {(c - b).squaredNorm(), (a - c).squaredNorm(), (b - a).squaredNorm()};
+    int i = 0;
+    if (side2[1] < side2[i]) i = 1;
+    if (side2[2] < side2[i]) i = 2;
+    const Eigen::Vector3d u = p[(i + 1) % 3] - p[i];
+    const Eigen::Vector3d v = p[(i + 2) % 3] - p[i];
+    return std::atan2(u.cross(v).norm(), u.dot(v)) * 180.0 / std::numbers::pi;
 }
 
 double tet_signed_volume(const Eigen::Vector3d& a, const Eigen::Vector3d& b,
