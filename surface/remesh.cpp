@@ -243,8 +243,11 @@ RemeshResult remesh(const core::SurfaceNetwork& bg, const RemeshParams& params,
     core::SurfaceNetwork out;
     SurfaceConstraints constraints;
     std::size_t curve_points = 0;
+    // Counters summed over patches and passes: those of the last round only are reported.
+    std::map<std::string, double> round_sums;
     for (int round = 0; round < kRounds; ++round) {
         ctx.count("remesh.rounds", double(round + 1));
+        round_sums.clear();
         // 3. Curves first, shared by every patch they bound. Output vertices: corners, then each
         // curve's other points.
         ctx.progress(0.15, "curves");
@@ -352,7 +355,7 @@ RemeshResult remesh(const core::SurfaceNetwork& bg, const RemeshParams& params,
             continue;
         }
         for (std::size_t p = 0; p < np; ++p) {
-            for (const auto& [name, value] : contexts[p].counters()) ctx.add(name, value);
+            for (const auto& [name, value] : contexts[p].counters()) round_sums[name] += value;
             for (const auto& w : contexts[p].warnings()) ctx.warn(w);
         }
 
@@ -382,8 +385,8 @@ RemeshResult remesh(const core::SurfaceNetwork& bg, const RemeshParams& params,
             }
         }
         ctx.count("remesh.front_faces", double(out.face_count()));
-        ctx.add("remesh.shared_inner_edges_flipped",
-                double(flip_shared_inner_edges(out, face_patch, curve_points)));
+        round_sums["remesh.shared_inner_edges_flipped"] +=
+            double(flip_shared_inner_edges(out, face_patch, curve_points));
         clock.lap("front");
 
         // 6. Angle-based smoothing with projection, curve vertices on their curves, flips.
@@ -408,7 +411,7 @@ RemeshResult remesh(const core::SurfaceNetwork& bg, const RemeshParams& params,
             smp.flip_max_dihedral_deg = params.flip_max_dihedral_deg;
             core::StageContext sub;
             smooth_surface(out, pointers, constraints, smp, sub);
-            for (const auto& [name, value] : sub.counters()) ctx.add(name, value);
+            for (const auto& [name, value] : sub.counters()) round_sums[name] += value;
         }
 
         clock.lap("smoothing");
@@ -510,6 +513,7 @@ RemeshResult remesh(const core::SurfaceNetwork& bg, const RemeshParams& params,
         }
         break;
     }
+    for (const auto& [name, value] : round_sums) ctx.add(name, value);
     clock.lap("checks");
 
     RemeshResult result;
