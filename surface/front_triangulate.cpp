@@ -780,13 +780,12 @@ bool FrontMesher::local_remesh(std::int32_t e) {
     const std::int32_t a = edges_[static_cast<std::size_t>(e)].a, b = edges_[static_cast<std::size_t>(e)].b;
     // The level counts earlier remeshings near here (new points do not remember them).
     const Eigen::Vector3d centre = 0.5 * (xyz_[static_cast<std::size_t>(a)] + xyz_[static_cast<std::size_t>(b)]);
-    const double reach = 2.0 * (xyz_[static_cast<std::size_t>(b)] - xyz_[static_cast<std::size_t>(a)]).norm();
-    remesh_sites_.query_sphere(centre, reach, scratch_ids_);
-    const int level = std::min(1 + static_cast<int>(scratch_ids_.size()) / 2, 8);
-    if (static_cast<int>(scratch_ids_.size()) >= params_.max_local_remesh) {
-        dump_near(centre, std::max(10.0 * reach, 8.0));
+    const int near = remeshings_near(e);
+    const int level = std::min(1 + near / 2, 8);
+    if (near >= params_.max_local_remesh) {
+        dump_near(centre, std::max(20.0 * (xyz_[static_cast<std::size_t>(b)] - xyz_[static_cast<std::size_t>(a)]).norm(), 8.0));
         throw FrontStall("remesh: the front cannot be closed near " + where(centre) + " after " +
-                             std::to_string(scratch_ids_.size()) + " local remeshings there",
+                             std::to_string(near) + " local remeshings there",
                          centre, __FILE__, __LINE__, __func__);
     }
     remesh_sites_.insert(static_cast<std::int32_t>(remeshings_), centre);

@@ -100,6 +100,27 @@ DiscreteCurve discretise(const core::SurfaceNetwork& bg, const FeatureCurve& cur
     return out;
 }
 
+// Edges of `region`'s boundary in `s` with other than two of its faces (open or
+// non-manifold), in edge order.
+std::vector<std::int32_t> edges_not_two_faces(const core::SurfaceNetwork& s, const EdgeTable& et,
+                                              core::Label region) {
+    std::vector<std::int32_t> bad;
+    for (std::size_t e = 0; e < et.edge_count(); ++e) {
+        int uses = 0;
+        for (auto k = et.face_offsets[e]; k < et.face_offsets[e + 1]; ++k) {
+            const auto f = std::size_t(et.edge_faces[std::size_t(k)]);
+            uses += s.region_in[f] == region || s.region_out[f] == region;
+        }
+        if (uses != 0 && uses != 2) bad.push_back(static_cast<std::int32_t>(e));
+    }
+    return bad;
+}
+
+Eigen::Vector3d edge_midpoint(const core::SurfaceNetwork& s, const EdgeTable& et, std::int32_t e) {
+    const auto& v = et.vertices[std::size_t(e)];
+    return 0.5 * (s.point(v[0]) + s.point(v[1]));
+}
+
 // Two patches that both joined the same two curve points by an inner edge (a thin lens
 // between two curves) would make that edge non-manifold: the edge is flipped inside the
 // later patch (the other diagonal of its two faces there) when both new faces keep the
@@ -420,43 +441,39 @@ RemeshResult remesh(const core::SurfaceNetwork& bg, const RemeshParams& params,
         ctx.progress(0.9, "checks");
         const auto checks = core::check_region_boundaries(out);
         bool again = false;
+        std::optional<EdgeTable> out_edges;  // built only when a region fails its check
+        const auto et_of_out = [&]() -> const EdgeTable& {
+            if (!out_edges) out_edges = edge_table(out);
+            return *out_edges;
+        };
         for (const auto& c : checks) {
-            if ((!c.is_closed() || !c.is_oriented() || c.nonmanifold_edges > 0) && round + 1 < kRounds) {
-                // Two patches joined the same two curve points by an inner edge (a short curve
-                // between sharp corners): meshed again with finer curves there.
-                const EdgeTable et = edge_table(out);
-                for (std::size_t e = 0; e < et.edge_count(); ++e) {
-                    int uses = 0;
-                    for (auto k = et.face_offsets[e]; k < et.face_offsets[e + 1]; ++k) {
-                        const auto f = std::size_t(et.edge_faces[std::size_t(k)]);
-                        uses += out.region_in[f] == c.region || out.region_out[f] == c.region;
-                    }
-                    if (uses == 0 || uses == 2) continue;
-                    const Eigen::Vector3d m = 0.5 * (out.point(et.vertices[e][0]) + out.point(et.vertices[e][1]));
-                    shrink_sites.emplace_back(m, 2.0 * size.at(m, -1));
-                }
-                ctx.warn("remesh: region " + std::to_string(c.region) +
-                         " is not a closed 2-manifold after the front; meshing again with half the size there");
-                again = true;
-                break;
-            }
             if (!c.is_closed() || !c.is_oriented() || c.nonmanifold_edges > 0) {
-                // Name a place: the first edge of the region with other than two faces.
+                const std::vector<std::int32_t> bad = edges_not_two_faces(out, et_of_out(), c.region);
+                if (round + 1 < kRounds) {
+                    // Two patches joined the same two curve points by an inner edge (a short
+                    // curve between sharp corners): meshed again with finer curves there.
+                    for (const std::int32_t e : bad) {
+                        const Eigen::Vector3d m = edge_midpoint(out, et_of_out(), e);
+                        shrink_sites.emplace_back(m, 2.0 * size.at(m, -1));
+                    }
+                    ctx.warn("remesh: region " + std::to_string(c.region) +
+                             " is not a closed 2-manifold after the front; meshing again with half the size there");
+                    again = true;
+                    break;
+                }
+                // Name a place: the first such edge and the patches of its faces.
                 std::string place;
-                const EdgeTable et = edge_table(out);
-                for (std::size_t e = 0; e < et.edge_count() && place.empty(); ++e) {
-                    int uses = 0;
+                if (!bad.empty()) {
+                    const EdgeTable& et = et_of_out();
+                    const auto e = std::size_t(bad.front());
                     std::string patches;
                     for (auto k = et.face_offsets[e]; k < et.face_offsets[e + 1]; ++k) {
                         const auto f = std::size_t(et.edge_faces[std::size_t(k)]);
-                        if (out.region_in[f] != c.region && out.region_out[f] != c.region) continue;
-                        ++uses;
-                        patches += " " + std::to_string(constraints.face_patch[f]);
+                        if (out.region_in[f] == c.region || out.region_out[f] == c.region)
+                            patches += " " + std::to_string(constraints.face_patch[f]);
                     }
-                    if (uses != 0 && uses != 2)
-                        place = " (e.g. the edge at " +
-                                point_text(0.5 * (out.point(et.vertices[e][0]) + out.point(et.vertices[e][1]))) +
-                                ", faces of patches" + patches + ")";
+                    place = " (e.g. the edge at " + point_text(edge_midpoint(out, et, bad.front())) +
+                            ", faces of patches" + patches + ")";
                 }
                 FM_THROW(GeometryError, "remesh: region " + std::to_string(c.region) + " has " +
                                             std::to_string(c.open_edges) + " open, " +

@@ -242,14 +242,7 @@ TEST_CASE("random labels: the clean-up ends with every region and their union ma
         const auto s =
             surface::extract(image, with_method(surface::ExtractMethod::SurfaceNets), ctx);
         INFO("seed " << seed);
-        const auto checks = core::check_region_boundaries(s);
-        REQUIRE_FALSE(checks.empty());
-        for (const auto& c : checks) {
-            INFO("region " << c.region);
-            CHECK(c.is_closed());
-            CHECK(c.is_oriented());
-            CHECK(c.nonmanifold_edges == 0);
-        }
+        require_closed_oriented_manifold(s);
         const auto defects = union_boundary_defects(s);
         CHECK(defects.faces > 0);
         CHECK(defects.bad_edges == 0);
