@@ -43,6 +43,7 @@
 #include "pipeline/core/quality.h"
 #include "pipeline/core/surface_network.h"
 #include "tests/fixtures/phantoms.h"
+#include "tests/fixtures/referee.h"
 
 namespace {
 
@@ -686,9 +687,12 @@ TEST_CASE("write_tet_mesh_vtu round trip keeps tets, regions, boundary faces and
 
     // The outside referee agrees: valid, and the boundary is the surface we wrote.
     frontmesh::io::write_surface_vtu(frontmesh::core::boundary_surface(mesh), dir + "/surface.vtu", {});
-    const std::string cmd = "/usr/bin/python3 " FRONTMESH_SOURCE_DIR
-                            "/../shared/tools/meshcheck.py " + path + " --surface " + dir +
-                            "/surface.vtu --strict-surface > " + dir + "/meshcheck.txt 2>&1";
+    if (frontmesh::fixtures::meshcheck_path().empty()) {
+        WARN("meshcheck.py not found; referee skipped");
+        return;
+    }
+    const std::string cmd = "/usr/bin/python3 '" + frontmesh::fixtures::meshcheck_path() + "' " + path +
+                            " --surface " + dir + "/surface.vtu --strict-surface > " + dir + "/meshcheck.txt 2>&1";
     CHECK(std::system(cmd.c_str()) == 0);
 }
 

@@ -16,6 +16,7 @@
 #include "pipeline/check.h"
 #include "pipeline/core/quality.h"
 #include "tests/fixtures/phantoms.h"
+#include "tests/fixtures/referee.h"
 #include "tests/pipeline/cli_helpers.h"
 
 using namespace frontmesh;
@@ -24,10 +25,10 @@ namespace fs = std::filesystem;
 
 namespace {
 
-const std::string kMeshcheck = "/work/shared/tools/meshcheck.py";
+const std::string kMeshcheck = fixtures::meshcheck_path();
 
 bool have_referee() {
-    return fs::exists(kMeshcheck) &&
+    return !kMeshcheck.empty() &&
            std::system("/usr/bin/python3 -c 'import numpy, meshio, vtkmodules' > /dev/null 2>&1") == 0;
 }
 

@@ -4,6 +4,7 @@
 #include <catch2/catch.hpp>
 
 #include "tests/fixtures/phantoms.h"
+#include "tests/fixtures/referee.h"
 #include "tests/pipeline/cli_helpers.h"
 
 using namespace frontmesh;
@@ -47,8 +48,8 @@ TEST_CASE("run writes checkpoints, run.pvd, summary, log and result", "[pipeline
                             Catch::Contains("\"regions_closed\": 3") && Catch::Contains("\"peak_rss_mb\"") &&
                             Catch::Contains("\"frame\": \"lps\""));
     // The outside referee, region by region (the network itself is non-manifold at junctions).
-    const std::string referee = std::string(FRONTMESH_SOURCE_DIR) + "/../shared/tools/meshcheck.py";
-    if (fs::exists(referee)) {
+    const std::string referee = fixtures::meshcheck_path();
+    if (!referee.empty()) {
         const std::string cmd = "/usr/bin/python3 '" + std::string(FRONTMESH_SOURCE_DIR) +
                                 "/scripts/meshcheck_regions.py' '" + (out / "checkpoints/02-repair.vtu").string() +
                                 "' '" + dir + "/regions' '" + referee + "' > '" + dir + "/referee.txt' 2>&1";
@@ -134,10 +135,10 @@ TEST_CASE("Colin27 brain: closed surface passes meshcheck, checkpoints read by V
     const auto r = run_frontmesh("run '" + recipe + "' --quiet --until repair --set output.dir=" + dir + "/out", dir);
     INFO(r.err);
     REQUIRE(r.exit_code == 0);
-    const std::string check = "/usr/bin/python3 '" + std::string(FRONTMESH_SOURCE_DIR) +
-                              "/../shared/tools/meshcheck.py' '" + dir + "/out/surface.vtu' --json '" + dir +
+    const std::string referee = fixtures::meshcheck_path();
+    const std::string check = "/usr/bin/python3 '" + referee + "' '" + dir + "/out/surface.vtu' --json '" + dir +
                               "/meshcheck.json' > '" + dir + "/meshcheck.txt' 2>&1";
-    if (fs::exists(std::string(FRONTMESH_SOURCE_DIR) + "/../shared/tools/meshcheck.py")) {
+    if (!referee.empty()) {
         const int status = std::system(check.c_str());
         INFO(slurp(dir + "/meshcheck.txt"));
         CHECK(WEXITSTATUS(status) == 0);

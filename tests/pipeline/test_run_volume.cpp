@@ -7,6 +7,7 @@
 
 #include "io/mesh_io.h"
 #include "tests/fixtures/phantoms.h"
+#include "tests/fixtures/referee.h"
 #include "tests/pipeline/cli_helpers.h"
 #include "volume/mesh_check.h"
 
@@ -18,7 +19,7 @@ namespace fs = std::filesystem;
 
 namespace {
 
-const std::string kReferee = std::string(FRONTMESH_SOURCE_DIR) + "/../shared/tools/meshcheck.py";
+const std::string kReferee = fixtures::meshcheck_path();
 
 // meshcheck.py MESH --surface SURFACE --strict-surface: exit status and its report.
 std::pair<int, std::string> referee(const fs::path& mesh, const fs::path& surface, const fs::path& dir) {

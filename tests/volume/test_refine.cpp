@@ -13,6 +13,7 @@
 #include "pipeline/core/error.h"
 #include "pipeline/core/quality.h"
 #include "tests/fixtures/phantoms.h"
+#include "tests/fixtures/referee.h"
 #include "tests/volume/refine_fixtures.h"
 #include "volume/mesh_check.h"
 #include "volume/refine.h"
@@ -286,7 +287,11 @@ TEST_CASE("Refined tetgen sphere passes meshcheck with the surface preserved", "
     REQUIRE(volume::check_tet_mesh(out).valid());
     io::write_surface_vtu(surface, dir + "/surface.vtu", {});
     io::write_tet_mesh_vtu(out, dir + "/refined.vtu", {});
-    const std::string command = "/usr/bin/python3 /work/shared/tools/meshcheck.py '" + dir +
+    if (fixtures::meshcheck_path().empty()) {
+        WARN("meshcheck.py not found; referee skipped");
+        return;
+    }
+    const std::string command = "/usr/bin/python3 '" + fixtures::meshcheck_path() + "' '" + dir +
                                 "/refined.vtu' --surface '" + dir + "/surface.vtu' --strict-surface > '" +
                                 dir + "/meshcheck.log' 2>&1";
     CHECK(std::system(command.c_str()) == 0);
