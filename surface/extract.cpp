@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <array>
 #include <bit>
+#include <cmath>
+#include <cstdlib>
 #include <cstdint>
 #include <map>
 #include <set>
@@ -326,6 +328,90 @@ struct IndexToPhysical {
     }
 };
 
+// Multi-label smoothing of the label map: every label's indicator (the outside, label 0,
+// included) is blurred by a Gaussian of `sigma_mm`, and each voxel takes the label whose
+// blurred indicator is largest there (ties: the smaller label). Removes one-voxel fins,
+// spikes and slits, whose surfaces fold too sharply for the remesher, and keeps every
+// interface shared. Each label is blurred within its bounding box grown by 3 sigma, so the
+// cost is about the sum of the labels' boxes. Returns the voxels changed.
+std::size_t smooth_labels(const core::LabelImage& image, std::vector<Label>& labels, double sigma_mm) {
+    const auto& d = image.dims;
+    std::array<int, 3> radius{};
+    std::array<std::vector<float>, 3> kernel;
+    for (int a = 0; a < 3; ++a) {
+        const double sigma = sigma_mm / image.spacing[a];
+        radius[std::size_t(a)] = std::max(1, static_cast<int>(std::ceil(3.0 * sigma)));
+        auto& k = kernel[std::size_t(a)];
+        double sum = 0.0;
+        for (int i = -radius[std::size_t(a)]; i <= radius[std::size_t(a)]; ++i) {
+            k.push_back(static_cast<float>(std::exp(-0.5 * i * i / (sigma * sigma))));
+            sum += k.back();
+        }
+        for (float& w : k) w = static_cast<float>(w / sum);
+    }
+    // Bounding boxes of the labels present.
+    std::map<Label, std::array<int, 6>> boxes;
+    for (int z = 0; z < d[2]; ++z)
+        for (int y = 0; y < d[1]; ++y)
+            for (int x = 0; x < d[0]; ++x) {
+                const Label l = labels[image.index(x, y, z)];
+                auto [it, fresh] = boxes.try_emplace(l, std::array<int, 6>{x, y, z, x, y, z});
+                if (!fresh) {
+                    auto& b = it->second;
+                    b[0] = std::min(b[0], x), b[1] = std::min(b[1], y), b[2] = std::min(b[2], z);
+                    b[3] = std::max(b[3], x), b[4] = std::max(b[4], y), b[5] = std::max(b[5], z);
+                }
+            }
+    std::vector<float> best(labels.size(), -1.0f);
+    std::vector<Label> arg(labels.size(), 0);
+    std::vector<float> field, tmp;
+    for (const auto& [label, b] : boxes) {
+        int lo[3], n[3];
+        for (int a = 0; a < 3; ++a) {
+            lo[a] = std::max(0, b[std::size_t(a)] - radius[std::size_t(a)]);
+            const int hi = std::min(d[std::size_t(a)] - 1, b[std::size_t(a) + 3] + radius[std::size_t(a)]);
+            n[a] = hi - lo[a] + 1;
+        }
+        const std::size_t count = std::size_t(n[0]) * std::size_t(n[1]) * std::size_t(n[2]);
+        field.assign(count, 0.0f);
+        auto at = [&](int x, int y, int z) { return (std::size_t(z) * std::size_t(n[1]) + std::size_t(y)) * std::size_t(n[0]) + std::size_t(x); };
+        for (int z = 0; z < n[2]; ++z)
+            for (int y = 0; y < n[1]; ++y)
+                for (int x = 0; x < n[0]; ++x)
+                    field[at(x, y, z)] = labels[image.index(lo[0] + x, lo[1] + y, lo[2] + z)] == label ? 1.0f : 0.0f;
+        // Separable blur, one axis at a time; samples outside the image repeat the border.
+        for (int a = 0; a < 3; ++a) {
+            tmp.assign(count, 0.0f);
+            const auto& k = kernel[std::size_t(a)];
+            const int r = radius[std::size_t(a)];
+            for (int z = 0; z < n[2]; ++z)
+                for (int y = 0; y < n[1]; ++y)
+                    for (int x = 0; x < n[0]; ++x) {
+                        int c[3] = {x, y, z};
+                        const int centre = c[a];
+                        float sum = 0.0f;
+                        for (int i = -r; i <= r; ++i) {
+                            c[a] = std::clamp(centre + i, 0, n[a] - 1);
+                            sum += k[std::size_t(i + r)] * field[at(c[0], c[1], c[2])];
+                        }
+                        tmp[at(x, y, z)] = sum;
+                    }
+            field.swap(tmp);
+        }
+        for (int z = 0; z < n[2]; ++z)
+            for (int y = 0; y < n[1]; ++y)
+                for (int x = 0; x < n[0]; ++x) {
+                    const std::size_t v = image.index(lo[0] + x, lo[1] + y, lo[2] + z);
+                    const float f = field[at(x, y, z)];
+                    if (f > best[v]) best[v] = f, arg[v] = label;  // labels ascend: ties keep the smaller
+                }
+    }
+    std::size_t changed = 0;
+    for (std::size_t v = 0; v < labels.size(); ++v)
+        if (best[v] >= 0.0f && arg[v] != labels[v]) labels[v] = arg[v], ++changed;
+    return changed;
+}
+
 core::SurfaceNetwork surface_nets(const core::LabelImage& image, std::vector<Label>& labels,
                                   const ExtractParams& params, core::StageContext& ctx) {
     const auto n = image.dims;
@@ -433,6 +519,7 @@ core::SurfaceNetwork surface_nets(const core::LabelImage& image, std::vector<Lab
         }
     }
     const double lambda = params.smoothing_relaxation;
+    constexpr double kCubeMargin = 0.1;  // voxels
     const std::vector<Eigen::Vector3d> unsmoothed = position;
     std::vector<Eigen::Vector3d> next(nv);
     for (int pass = 0; pass < params.smoothing_iterations; ++pass) {
@@ -446,8 +533,10 @@ core::SurfaceNetwork surface_nets(const core::LabelImage& image, std::vector<Lab
             Eigen::Vector3d mean = Eigen::Vector3d::Zero();
             for (int e = offset[v]; e < offset[v + 1]; ++e) mean += position[neighbor[e]];
             Eigen::Vector3d p = (1.0 - lambda) * position[v] + lambda * mean / count;
+            // A margin keeps the vertices of neighbouring cubes apart: clamped onto a shared
+            // cube face or corner they would coincide and fold the net there.
             for (int d = 0; d < 3; ++d)
-                p[d] = std::clamp(p[d], double(cube_of_vertex[v][d]), double(cube_of_vertex[v][d] + 1));
+                p[d] = std::clamp(p[d], cube_of_vertex[v][d] + kCubeMargin, cube_of_vertex[v][d] + 1 - kCubeMargin);
             next[v] = p;
         }
         position.swap(next);
@@ -473,12 +562,15 @@ core::SurfaceNetwork surface_nets(const core::LabelImage& image, std::vector<Lab
         }
     }
     // Smoothing can fold faces across a thin gap or a sharp junction; the unsmoothed net
-    // does not. Put the vertices of intersecting faces back until none is left.
+    // does not. Put the vertices of intersecting faces back until none is left: every round
+    // puts back at least one vertex (two faces whose vertices are all unsmoothed do not
+    // intersect), so the loop ends.
     if (params.smoothing_iterations > 0) {
         std::size_t restored = 0;
-        for (int round = 0; round < 8; ++round) {
+        for (;;) {
             const auto pairs = core::self_intersections(out);
             if (pairs.empty()) break;
+            const std::size_t restored_before = restored;
             std::vector<std::int32_t> vertices;
             for (const auto& [f, g] : pairs)
                 for (std::int32_t face : {f, g})
@@ -490,6 +582,7 @@ core::SurfaceNetwork surface_nets(const core::LabelImage& image, std::vector<Lab
                 if (out.point(v) != p) ++restored;
                 out.point(v) = p;
             }
+            if (restored == restored_before) break;  // nothing left to put back
         }
         ctx.count("extract.vertices_unsmoothed", static_cast<double>(restored));
         if (restored > 0)
@@ -632,6 +725,23 @@ core::SurfaceNetwork extract(const core::LabelImage& image, const ExtractParams&
     if (method == ExtractMethod::FlyingEdges && chosen.size() != 1)
         FM_THROW(InputError, "extract.method: flying_edges contours one label, " + std::to_string(chosen.size()) +
                                  " are chosen; use surface_nets (or auto) for several labels");
+
+    if (method == ExtractMethod::SurfaceNets && params.blur_sigma_mm > 0.0) {
+        const std::size_t changed = smooth_labels(image, labels, params.blur_sigma_mm);
+        ctx.count("extract.voxels_relabelled_by_blur", static_cast<double>(changed));
+        std::set<Label> left;
+        Label last = -1;
+        for (Label l : labels)
+            if (l != 0 && l != last) left.insert(last = l);
+        std::string lost;
+        for (Label l : chosen)
+            if (!left.count(l)) lost += " " + std::to_string(l);
+        ctx.info("extract: label blur (sigma " + std::to_string(params.blur_sigma_mm) + " mm) relabelled " +
+                 std::to_string(changed) + " voxels");
+        if (!lost.empty())
+            ctx.warn("extract: the label blur removed every voxel of label(s)" + lost +
+                     "; lower extract.blur_sigma_mm to keep them");
+    }
 
     if (params.manifold_cleanup) {
         bool converged = false;

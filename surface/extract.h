@@ -19,10 +19,12 @@ enum class ExtractMethod {
 struct ExtractParams {
     std::vector<core::Label> labels;  ///< labels to mesh (`input.labels`); empty = all
     ExtractMethod method = ExtractMethod::Auto;
-    /// flying_edges only: Gaussian blur (mm) of the label mask before contouring at 0.5;
-    /// 0 contours the mask as it is.
+    /// Gaussian blur (mm); 0 contours the voxels as they are. flying_edges: the label mask is
+    /// blurred and contoured at 0.5. surface_nets: each label's indicator (0 included) is
+    /// blurred and every voxel takes the label blurred largest there (ties: the smaller).
     double blur_sigma_mm = 0.0;
-    /// surface_nets only: constrained smoothing passes (vertices stay in their cube;
+    /// surface_nets only: constrained smoothing passes (vertices stay in their cube, 0.1 voxel
+    /// off its faces so that neighbouring vertices never coincide;
     /// junction curves smooth along themselves, corners stay).
     int smoothing_iterations = 8;
     double smoothing_relaxation = 0.5;  ///< surface_nets: step of each pass, (0, 1]

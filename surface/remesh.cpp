@@ -9,6 +9,7 @@
 #include <set>
 #include <sstream>
 #include <string>
+#include <unordered_map>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -54,6 +55,7 @@ struct DiscreteCurve {
     std::vector<Eigen::Vector3d> points;  // their positions
     std::vector<double> s;                // arc length on the background polyline, mm
     std::vector<std::int32_t> faces;      // a background face at each point
+    std::vector<std::int32_t> bg_vertex;  // the background vertex at each point, or -1
 };
 
 DiscreteCurve discretise(const core::SurfaceNetwork& bg, const FeatureCurve& curve,
@@ -97,7 +99,61 @@ DiscreteCurve discretise(const core::SurfaceNetwork& bg, const FeatureCurve& cur
     out.points.push_back(bg.point(cv.back()));
     out.s.push_back(arc.back());
     out.faces.push_back(segment_face(n - 2));
+    out.bg_vertex.assign(out.points.size(), -1);
+    out.bg_vertex.front() = cv.front();
+    out.bg_vertex.back() = cv.back();
     return out;
+}
+
+// The curve at full resolution: every polyline vertex is a point (the boundary of a patch
+// copied from the background, below).
+DiscreteCurve discretise_full(const core::SurfaceNetwork& bg, const FeatureCurve& curve, const EdgeTable& edges) {
+    const auto& cv = curve.vertices;
+    DiscreteCurve out;
+    double arc = 0.0;
+    for (std::size_t i = 0; i < cv.size(); ++i) {
+        if (i > 0) arc += (bg.point(cv[i]) - bg.point(cv[i - 1])).norm();
+        const std::size_t k = std::min(i, cv.size() - 2);
+        const std::int32_t a = std::min(cv[k], cv[k + 1]), b = std::max(cv[k], cv[k + 1]);
+        const auto it = std::lower_bound(edges.vertices.begin(), edges.vertices.end(), std::array<std::int32_t, 2>{a, b});
+        FM_CHECK(it != edges.vertices.end() && (*it)[0] == a && (*it)[1] == b);
+        out.points.push_back(bg.point(cv[i]));
+        out.s.push_back(arc);
+        out.faces.push_back(edges.edge_faces[std::size_t(edges.face_offsets[std::size_t(it - edges.vertices.begin())])]);
+        out.bg_vertex.push_back(cv[i]);
+    }
+    return out;
+}
+
+// The last resort for a patch whose front stalls again and again (a fold or pinch of the
+// background the front cannot follow at any size): the patch's own background triangles,
+// its boundary at full resolution. Valid and exactly on the background; the smoothing and
+// flips after the front improve its shape like any other patch's. `loop_bg`: the background
+// vertex of each loop point, in loop order (loop points come first, as from the front).
+PatchMesh copy_background_patch(const core::SurfaceNetwork& bg, const Patch& patch,
+                                const std::vector<std::int32_t>& loop_bg) {
+    PatchMesh mesh;
+    std::unordered_map<std::int32_t, std::int32_t> id;
+    for (const std::int32_t v : loop_bg) {
+        FM_CHECK(v >= 0);
+        id.emplace(v, static_cast<std::int32_t>(mesh.points.size()));  // a repeated point keeps its first id
+        mesh.points.push_back(bg.point(v));
+        mesh.point_face.push_back(patch.faces.front());
+    }
+    for (const std::int32_t f : patch.faces) {
+        std::array<std::int32_t, 3> t{};
+        for (int k = 0; k < 3; ++k) {
+            const std::int32_t v = bg.faces[std::size_t(f)][std::size_t(k)];
+            const auto [it, fresh] = id.emplace(v, static_cast<std::int32_t>(mesh.points.size()));
+            if (fresh) {
+                mesh.points.push_back(bg.point(v));
+                mesh.point_face.push_back(f);
+            }
+            t[std::size_t(k)] = it->second;
+        }
+        mesh.faces.push_back(t);
+    }
+    return mesh;
 }
 
 // Edges of `region`'s boundary in `s` with other than two of its faces (open or
@@ -250,8 +306,31 @@ RemeshResult remesh(const core::SurfaceNetwork& bg, const RemeshParams& params,
 
     // Steps 3 to 7 run again, with the size halved around each crossing, when faces of the
     // result intersect (at most kRounds times).
-    constexpr int kRounds = 4;
+    constexpr int kRounds = 10;
+    // Stalls per patch over the rounds; a patch whose front stalls twice is copied from the
+    // background (copy_background_patch) from then on.
+    std::vector<int> patch_stalls(features.patches.size(), 0), patch_crossings(features.patches.size(), 0);
+    std::vector<std::uint8_t> copy_patch(features.patches.size(), 0);
     std::vector<std::pair<Eigen::Vector3d, double>> shrink_sites;  // centre, radius (mm)
+    // A patch whose loops, copy state and size field (no new shrink site within reach of its
+    // bounding box) are those of a round it was meshed in keeps that mesh: the front is
+    // deterministic, so the result is the same, and a round costs only the patches it changes.
+    const std::size_t np = features.patches.size();
+    std::vector<BackgroundPatch> patches;
+    patches.reserve(np);
+    for (const auto& p : features.patches) patches.emplace_back(bg, p.faces, false);
+    std::vector<core::AdtBox> patch_box(np);
+    for (std::size_t p = 0; p < np; ++p) {
+        const auto& fv = bg.faces[std::size_t(features.patches[p].faces.front())];
+        patch_box[p] = core::AdtBox::of_point(bg.point(fv[0]));
+        for (const std::int32_t f : features.patches[p].faces)
+            for (const std::int32_t v : bg.faces[std::size_t(f)]) patch_box[p].extend(bg.point(v));
+    }
+    std::vector<PatchMesh> meshes(np);
+    std::vector<core::StageContext> contexts(np);
+    std::vector<std::vector<PatchLoop>> meshed_loops(np);
+    std::vector<std::uint8_t> meshed(np, 0), meshed_copy(np, 0);
+    std::size_t sites_seen = 0;
     const auto scale_at = [&shrink_sites](const Eigen::Vector3d& x) {
         double scale = 1.0;
         for (const auto& [c, r] : shrink_sites) {
@@ -286,12 +365,18 @@ RemeshResult remesh(const core::SurfaceNetwork& bg, const RemeshParams& params,
                              std::max(c.vertices.front(), c.vertices.back())}];
         std::vector<DiscreteCurve> curves;
         curves.reserve(features.curves.size());
+        std::vector<std::uint8_t> curve_full(features.curves.size(), 0);
+        for (std::size_t p = 0; p < features.patches.size(); ++p)
+            if (copy_patch[p])
+                for (const auto& loop : features.patches[p].loops)
+                    for (const auto& use : loop) curve_full[std::size_t(use.curve)] = 1;
         for (const auto& c : features.curves) {
             const std::int32_t a = c.vertices.front(), b = c.vertices.back();
             int min_segments = 1;
             if (c.is_closed || a == b) min_segments = 3;
             else if (end_pairs[{std::min(a, b), std::max(a, b)}] > 1) min_segments = 2;
-            DiscreteCurve d = discretise(bg, c, vertex_size, features.edges, min_segments);
+            DiscreteCurve d = curve_full[curves.size()] ? discretise_full(bg, c, features.edges)
+                                                        : discretise(bg, c, vertex_size, features.edges, min_segments);
             d.ids.resize(d.points.size());
             for (std::size_t k = 0; k < d.points.size(); ++k) {
                 const bool first = k == 0, last = k + 1 == d.points.size();
@@ -311,11 +396,7 @@ RemeshResult remesh(const core::SurfaceNetwork& bg, const RemeshParams& params,
 
         // 4. Patches: background patch, loops from the shared curve points, advancing front.
         ctx.progress(0.2, "advancing front");
-        const std::size_t np = features.patches.size();
-        std::vector<BackgroundPatch> patches;
-        patches.reserve(np);
-        for (const auto& p : features.patches) patches.emplace_back(bg, p.faces, false);
-        std::vector<std::vector<std::int32_t>> loop_ids(np);
+        std::vector<std::vector<std::int32_t>> loop_ids(np), loop_bg(np);
         std::vector<std::vector<PatchLoop>> loops(np);
         for (std::size_t p = 0; p < np; ++p) {
             for (const auto& loop : features.patches[p].loops) {
@@ -324,8 +405,10 @@ RemeshResult remesh(const core::SurfaceNetwork& bg, const RemeshParams& params,
                     const auto& ids = curves[std::size_t(use.curve)].ids;
                     const std::size_t m = ids.size();
                     for (std::size_t k = 0; k + 1 < m; ++k) {
-                        const std::int32_t id = use.forward ? ids[k] : ids[m - 1 - k];
+                        const std::size_t at = use.forward ? k : m - 1 - k;
+                        const std::int32_t id = ids[at];
                         loop_ids[p].push_back(id);
+                        loop_bg[p].push_back(curves[std::size_t(use.curve)].bg_vertex[at]);
                         pl.points.push_back(out.point(id));
                     }
                 }
@@ -347,15 +430,43 @@ RemeshResult remesh(const core::SurfaceNetwork& bg, const RemeshParams& params,
             return size.at(x, face) * scale_at(x);
         };
         FrontParams fp;
-        std::vector<PatchMesh> meshes(np);
-        std::vector<core::StageContext> contexts(np);
+        std::vector<std::uint8_t> dirty(np, 0);
+        std::size_t remeshed = 0;
+        for (std::size_t p = 0; p < np; ++p) {
+            bool same = meshed[p] && meshed_copy[p] == copy_patch[p] && meshed_loops[p].size() == loops[p].size();
+            for (std::size_t l = 0; same && l < loops[p].size(); ++l)
+                same = meshed_loops[p][l].points == loops[p][l].points;
+            for (std::size_t k = sites_seen; same && k < shrink_sites.size(); ++k) {
+                const auto& [c, r] = shrink_sites[k];
+                double d2 = 0.0;  // squared distance from c to the box
+                for (int i = 0; i < 3; ++i) {
+                    const double lo = patch_box[p].lo[i], hi = patch_box[p].hi[i];
+                    const double t = c[i] < lo ? lo - c[i] : c[i] > hi ? c[i] - hi : 0.0;
+                    d2 += t * t;
+                }
+                same = d2 >= 4.0 * r * r;  // scale_at is 1 beyond 2r
+            }
+            dirty[p] = !same;
+            remeshed += dirty[p];
+        }
+        sites_seen = shrink_sites.size();
+        ctx.count("remesh.patches_meshed_in_last_round", double(remeshed));
         // A patch whose front stalls is recorded (patch order decides which error is
         // reported, so the result does not depend on the threads).
         std::vector<std::optional<FrontStall>> stalls(np);
         tbb::parallel_for(tbb::blocked_range<std::size_t>(0, np, 1), [&](const auto& range) {
             for (std::size_t p = range.begin(); p != range.end(); ++p) {
+                if (!dirty[p]) continue;
+                meshed[p] = 0;
+                contexts[p] = core::StageContext();
                 try {
-                    meshes[p] = triangulate_patch(patches[p], loops[p], size_function, fp, contexts[p]);
+                    if (copy_patch[p])
+                        meshes[p] = copy_background_patch(bg, features.patches[p], loop_bg[p]);
+                    else
+                        meshes[p] = triangulate_patch(patches[p], loops[p], size_function, fp, contexts[p]);
+                    meshed[p] = 1;
+                    meshed_copy[p] = copy_patch[p];
+                    meshed_loops[p] = loops[p];
                 } catch (const FrontStall& e) {
                     stalls[p] = e;
                 }
@@ -367,13 +478,26 @@ RemeshResult remesh(const core::SurfaceNetwork& bg, const RemeshParams& params,
             if (!stalls[p]) continue;
             if (++stalled <= 4) places += " " + point_text(stalls[p]->place());
             if (round + 1 >= kRounds) throw *stalls[p];
+            if (++patch_stalls[p] >= 2) {
+                copy_patch[p] = 1;
+                continue;
+            }
             const Eigen::Vector3d& x = stalls[p]->place();
             shrink_sites.emplace_back(x, 4.0 * size.at(x, -1));
         }
         if (stalled > 0) {
             ctx.warn("remesh: the front stalled in " + std::to_string(stalled) + " patch(es) (near" + places +
-                     "); meshing again with half the size there");
+                     "); meshing again with half the size there (a patch stalling twice keeps its background triangles)");
             continue;
+        }
+        {
+            std::size_t copied = 0, copied_faces = 0;
+            for (std::size_t p = 0; p < np; ++p)
+                if (copy_patch[p]) ++copied, copied_faces += meshes[p].faces.size();
+            ctx.count("remesh.patches_copied_from_background", double(copied));
+            if (copied > 0)
+                ctx.warn("remesh: " + std::to_string(copied) + " patch(es) (" + std::to_string(copied_faces) +
+                         " faces) keep their background triangles: the front stalled there twice or faces crossed three times");
         }
         for (std::size_t p = 0; p < np; ++p) {
             for (const auto& [name, value] : contexts[p].counters()) round_sums[name] += value;
@@ -505,8 +629,16 @@ RemeshResult remesh(const core::SurfaceNetwork& bg, const RemeshParams& params,
                 // Meshed again with half the size around each crossing (two patches meeting at
                 // a sharp angle, or a gap narrower than the smallest size): the finer the
                 // triangles, the closer they follow the background, which does not intersect.
+                // A patch whose faces still cross after two rounds of finer sizes (two sheets
+                // meeting in a cusp along a curve) keeps its background triangles instead.
+                std::set<std::int32_t> crossed;
+                for (const auto& [f, g] : pairs)
+                    for (const std::int32_t face : {f, g}) crossed.insert(constraints.face_patch[std::size_t(face)]);
+                for (const std::int32_t q : crossed)
+                    if (++patch_crossings[std::size_t(q)] >= 3) copy_patch[std::size_t(q)] = 1;
                 for (const auto& [f, g] : pairs)
                     for (const std::int32_t face : {f, g}) {
+                        if (copy_patch[std::size_t(constraints.face_patch[std::size_t(face)])]) continue;
                         const auto& t = out.faces[std::size_t(face)];
                         const Eigen::Vector3d c = (out.point(t[0]) + out.point(t[1]) + out.point(t[2])) / 3.0;
                         shrink_sites.emplace_back(c, 2.0 * size.at(c, -1));

@@ -123,6 +123,49 @@ TEST_CASE("surface nets on a ball: closed, outward, volume of the voxels", "[sur
     CHECK(core::enclosed_volume(s, 1) == Approx(labelled_volume(image, 1)).epsilon(0.01));
 }
 
+TEST_CASE("surface nets with a label blur: a one-voxel fin goes, labels and interfaces stay", "[surface]") {
+    // Split ball (labels 1 and 2 share a flat interface) with a one-voxel-thick fin of label
+    // 1 sticking out six voxels along +z.
+    auto image = fixtures::split_ball_image(40, 12.0);
+    const int c = 20;
+    for (int k = 0; k < 40; ++k)
+        for (int j = c - 6; j <= c + 6; ++j)
+            if (k >= c + 10 && k <= c + 18 && image.at(c, j, k - 1) != 0) image.labels[image.index(c, j, k)] = 1;
+    const auto top_of = [](const core::SurfaceNetwork& s, core::Label l) {
+        double top = -1e300;
+        for (std::size_t f = 0; f < s.face_count(); ++f)
+            if (s.region_in[f] == l || s.region_out[f] == l)
+                for (const auto v : s.faces[f]) top = std::max(top, s.point(v).z());
+        return top;
+    };
+    core::StageContext plain_ctx, blur_ctx;
+    auto params = with_method(surface::ExtractMethod::SurfaceNets);
+    const auto plain = surface::extract(image, params, plain_ctx);
+    params.blur_sigma_mm = 1.0;
+    const auto blurred = surface::extract(image, params, blur_ctx);
+    require_closed_oriented_manifold(blurred);
+    CHECK(core::region_labels(blurred) == std::vector<core::Label>{1, 2});
+    CHECK(blur_ctx.counters().at("extract.voxels_relabelled_by_blur") > 0);
+    CHECK(blur_ctx.warnings().empty());
+    // The fin is gone: label 1 ends about where the ball does.
+    CHECK(top_of(plain, 1) > top_of(plain, 2) + 4.0);
+    CHECK(top_of(blurred, 1) < top_of(blurred, 2) + 1.5);
+    // The interface is still one set of faces carrying both labels.
+    std::size_t interface_faces = 0;
+    for (std::size_t f = 0; f < blurred.face_count(); ++f)
+        interface_faces += blurred.region_in[f] == 2 && blurred.region_out[f] == 1;
+    CHECK(interface_faces > 100);
+    // A blur wide enough to swallow a small label is reported.
+    auto speck = fixtures::sphere_image(24, 8.0, 1.0, 1);
+    speck.labels[speck.index(12, 12, 12)] = 2;
+    core::StageContext speck_ctx;
+    params.blur_sigma_mm = 1.5;
+    const auto s = surface::extract(speck, params, speck_ctx);
+    CHECK(core::region_labels(s) == std::vector<core::Label>{1});
+    REQUIRE(speck_ctx.warnings().size() == 1);
+    CHECK(speck_ctx.warnings()[0].find("label(s) 2") != std::string::npos);
+}
+
 TEST_CASE("a torus has genus one", "[surface]") {
     const auto image = fixtures::torus_image(30.0, 14.0, 1.0);
     core::StageContext ctx;
@@ -296,4 +339,17 @@ TEST_CASE("AAL atlas: 116 regions closed and oriented, interfaces shared", "[sur
         interface_faces += s.region_out[f] != 0;
     }
     CHECK(interface_faces > 100000);
+}
+
+TEST_CASE("AAL atlas with the example's label blur: every region kept, closed and oriented", "[surface][e2e]") {
+    const std::string path = "/usr/share/mricron/templates/aal.nii.gz";
+    const auto image = io::read_label_image(path, io::ImageReadOptions{});
+    core::StageContext ctx;
+    surface::ExtractParams params;
+    params.blur_sigma_mm = 1.5;  // examples/aal-atlas.yaml
+    const auto s = surface::extract(image, params, ctx);
+    CHECK(core::region_labels(s).size() == 116);
+    CHECK(ctx.counters().at("extract.voxels_relabelled_by_blur") > 10000);
+    CHECK(ctx.warnings() == std::vector<std::string>());
+    require_closed_oriented_manifold(s);
 }
