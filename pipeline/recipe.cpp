@@ -252,6 +252,8 @@ const std::vector<KeySpec>& key_specs() {
                     0, 100),
         number_key("remesh.flip_max_dihedral_deg", "10.0", &Recipe::remesh,
                    &surface::RemeshParams::flip_max_dihedral_deg, 0.0, 90.0),
+        number_key("remesh.max_volume_change_percent", "0.0", &Recipe::remesh,
+                   &surface::RemeshParams::max_volume_change_percent, 0.0, 100.0),
         bool_key("remesh.check_self_intersections", "true", &Recipe::remesh,
                  &surface::RemeshParams::check_self_intersections),
         number_key("tetra.stretching", "1.15", &Recipe::tetra, &volume::TetraParams::stretching, 1.0, 2.0, true),
@@ -438,7 +440,7 @@ std::string canonical_params(const Recipe& recipe, const std::string& section) {
           << ";max=" << m.max_edge_length << ";curvature=" << m.curvature_angle_deg
           << ";layers=" << m.thickness_layers << ";feature=" << m.feature_angle_deg
           << ";smoothing=" << m.smoothing_iterations << ";flip=" << m.flip_max_dihedral_deg
-          << ";check_si=" << m.check_self_intersections;
+          << ";check_si=" << m.check_self_intersections << ";max_volume=" << m.max_volume_change_percent;
         for (const auto& [label, size] : m.label_edge_length) s << ";label" << label << "=" << size;
     } else if (section == "tetra") {
         const auto& t = recipe.tetra;

@@ -266,6 +266,8 @@ void validate(const RemeshParams& p) {
     if (p.smoothing_iterations < 0) fail("smoothing_iterations", "must be >= 0");
     if (!(p.flip_max_dihedral_deg >= 0.0 && p.flip_max_dihedral_deg <= 90.0))
         fail("flip_max_dihedral_deg", "must be in [0, 90] degrees");
+    if (!(p.max_volume_change_percent >= 0.0 && p.max_volume_change_percent <= 100.0))
+        fail("max_volume_change_percent", "must be in [0, 100] percent (0 = off)");
 }
 
 double default_edge_length(const core::SurfaceNetwork& background) {
@@ -328,6 +330,10 @@ RemeshResult remesh(const core::SurfaceNetwork& bg, const RemeshParams& params,
     }
     std::vector<PatchMesh> meshes(np);
     std::vector<core::StageContext> contexts(np);
+    // Size scale per background face and vertex (remesh.max_volume_change_percent), and the
+    // patches whose scale changed since they were meshed.
+    std::vector<double> face_scale(bg.face_count(), 1.0), vertex_scale(bg.vertex_count(), 1.0);
+    std::vector<std::uint8_t> patch_rescaled(np, 0);
     std::vector<std::vector<PatchLoop>> meshed_loops(np);
     std::vector<std::uint8_t> meshed(np, 0), meshed_copy(np, 0);
     std::size_t sites_seen = 0;
@@ -339,7 +345,9 @@ RemeshResult remesh(const core::SurfaceNetwork& bg, const RemeshParams& params,
         }
         return std::max(scale, 0.125);
     };
-    const auto vertex_size = [&](std::int32_t v) { return size.at_vertex(v) * scale_at(bg.point(v)); };
+    const auto vertex_size = [&](std::int32_t v) {
+        return size.at_vertex(v) * scale_at(bg.point(v)) * vertex_scale[std::size_t(v)];
+    };
     core::SurfaceNetwork out;
     SurfaceConstraints constraints;
     std::size_t curve_points = 0;
@@ -426,14 +434,15 @@ RemeshResult remesh(const core::SurfaceNetwork& bg, const RemeshParams& params,
             }
             ctx.count("remesh.patches_with_repeated_loop_points", double(repeated));
         }
-        const SizeFunction size_function = [&size, &scale_at](const Eigen::Vector3d& x, std::int32_t face) {
-            return size.at(x, face) * scale_at(x);
+        const SizeFunction size_function = [&size, &scale_at, &face_scale](const Eigen::Vector3d& x, std::int32_t face) {
+            return size.at(x, face) * scale_at(x) * (face >= 0 ? face_scale[std::size_t(face)] : 1.0);
         };
         FrontParams fp;
         std::vector<std::uint8_t> dirty(np, 0);
         std::size_t remeshed = 0;
         for (std::size_t p = 0; p < np; ++p) {
-            bool same = meshed[p] && meshed_copy[p] == copy_patch[p] && meshed_loops[p].size() == loops[p].size();
+            bool same = meshed[p] && !patch_rescaled[p] && meshed_copy[p] == copy_patch[p] &&
+                        meshed_loops[p].size() == loops[p].size();
             for (std::size_t l = 0; same && l < loops[p].size(); ++l)
                 same = meshed_loops[p][l].points == loops[p][l].points;
             for (std::size_t k = sites_seen; same && k < shrink_sites.size(); ++k) {
@@ -450,6 +459,7 @@ RemeshResult remesh(const core::SurfaceNetwork& bg, const RemeshParams& params,
             remeshed += dirty[p];
         }
         sites_seen = shrink_sites.size();
+        std::fill(patch_rescaled.begin(), patch_rescaled.end(), 0);
         ctx.count("remesh.patches_meshed_in_last_round", double(remeshed));
         // A patch whose front stalls is recorded (patch order decides which error is
         // reported, so the result does not depend on the threads).
@@ -570,6 +580,7 @@ RemeshResult remesh(const core::SurfaceNetwork& bg, const RemeshParams& params,
             if (!out_edges) out_edges = edge_table(out);
             return *out_edges;
         };
+        std::string rescaled;  // regions meshed again finer for their volume
         for (const auto& c : checks) {
             if (!c.is_closed() || !c.is_oriented() || c.nonmanifold_edges > 0) {
                 const std::vector<std::int32_t> bad = edges_not_two_faces(out, et_of_out(), c.region);
@@ -606,8 +617,31 @@ RemeshResult remesh(const core::SurfaceNetwork& bg, const RemeshParams& params,
                                             " non-manifold edges after remeshing" + place);
             }
             const double before = core::enclosed_volume(bg, c.region);
-            ctx.count("remesh.volume_change_percent.region_" + std::to_string(c.region),
-                      before != 0.0 ? 100.0 * (c.volume - before) / before : 0.0);
+            const double change = before != 0.0 ? 100.0 * (c.volume - before) / before : 0.0;
+            ctx.count("remesh.volume_change_percent.region_" + std::to_string(c.region), change);
+            const double limit = params.max_volume_change_percent;
+            if (limit > 0.0 && std::abs(change) > limit) {
+                if (round + 1 < kRounds) {
+                    // Chords lose volume as h^2: scale the sizes of the region's patches by
+                    // about sqrt(limit / change), with a margin.
+                    const double factor = std::clamp(0.9 * std::sqrt(limit / std::abs(change)), 0.5, 0.9);
+                    for (std::size_t p = 0; p < np; ++p) {
+                        const Patch& patch = features.patches[p];
+                        if (patch.region_in != c.region && patch.region_out != c.region) continue;
+                        patch_rescaled[p] = 1;
+                        for (const std::int32_t f : patch.faces) face_scale[std::size_t(f)] *= factor;
+                    }
+                    rescaled += " " + std::to_string(c.region) + " (" + std::to_string(change) + " %)";
+                } else {
+                    ctx.warn("remesh: region " + std::to_string(c.region) + " changed its volume by " +
+                             std::to_string(change) + " %, more than remesh.max_volume_change_percent");
+                }
+            }
+        }
+        if (!rescaled.empty()) {
+            for (std::size_t f = 0; f < bg.face_count(); ++f)
+                for (const std::int32_t v : bg.faces[f])
+                    vertex_scale[std::size_t(v)] = std::min(vertex_scale[std::size_t(v)], face_scale[f]);
         }
         if (again) continue;
         if (params.check_self_intersections) {
@@ -659,6 +693,11 @@ RemeshResult remesh(const core::SurfaceNetwork& bg, const RemeshParams& params,
                              std::to_string(constraints.face_patch[std::size_t(pairs[0].second)]) +
                              "); try a smaller remesh.edge_length there");
             }
+        }
+        if (!rescaled.empty()) {
+            ctx.warn("remesh: regions" + rescaled +
+                     " changed their volume more than remesh.max_volume_change_percent; meshing them again finer");
+            continue;
         }
         break;
     }

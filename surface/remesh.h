@@ -29,6 +29,10 @@ struct RemeshParams {
     int smoothing_iterations = 5;  ///< >= 0: angle-based smoothing + flip passes
     double flip_max_dihedral_deg = 10.0;  ///< [0, 90]: flip only edges this flat
     bool check_self_intersections = true;  ///< exact check of the result (GeometryError)
+    /// >= 0, percent: a region whose enclosed volume changes by more than this is meshed
+    /// again with sizes scaled by about sqrt(limit / change) on its patches (chords of an
+    /// inscribed mesh lose volume as h^2), for up to the stage's rounds; 0 = off.
+    double max_volume_change_percent = 0.0;
 };
 
 /// Throws InputError naming the key (`remesh.*`) when a value is out of range.

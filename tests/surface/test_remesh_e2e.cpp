@@ -114,10 +114,11 @@ core::SurfaceNetwork background_from(const std::string& path, std::optional<doub
 // Remeshes `bg` with edge length h (0: the stage's default), prints and checks the
 // acceptance figures; FRONTMESH_REMESH_OUT=file.vtu keeps the result.
 surface::RemeshResult remesh_and_check(const std::string& what, const core::SurfaceNetwork& bg, double h,
-                                        double curvature_angle_deg = 0.0) {
+                                        double curvature_angle_deg = 0.0, double max_volume_change_percent = 0.0) {
     surface::RemeshParams params;
     params.edge_length = h;
     params.curvature_angle_deg = curvature_angle_deg;
+    params.max_volume_change_percent = max_volume_change_percent;
     core::StageContext ctx;
     const auto t0 = std::chrono::steady_clock::now();
     auto r = surface::remesh(bg, params, ctx);
@@ -145,10 +146,12 @@ TEST_CASE("remesh the Colin27 brain at about 80k triangles", "[remesh][e2e][.]")
 TEST_CASE("remesh the AAL atlas: 116 regions, interfaces shared", "[remesh][e2e][.]") {
     const std::string path = "/usr/share/mricron/templates/aal.nii.gz";
     if (!std::filesystem::exists(path)) return;
-    // As examples/aal-atlas.yaml: multi-label blur 1.5 mm, h = 1 mm, curvature 20 degrees.
+    // As examples/aal-atlas.yaml: multi-label blur 1.5 mm, h = 1 mm, curvature 20 degrees,
+    // regions losing more than 0.45% of their volume meshed again finer.
     const auto bg = background_from(path, std::nullopt, env_or("FRONTMESH_REMESH_BLUR", 1.5), core::Frame::Ras);
     const auto r = remesh_and_check("AAL", bg, env_or("FRONTMESH_REMESH_AAL_H", 1.0),
-                                    env_or("FRONTMESH_REMESH_CURVATURE", 20.0));
+                                    env_or("FRONTMESH_REMESH_CURVATURE", 20.0),
+                                    env_or("FRONTMESH_REMESH_MAX_VOLUME", 0.45));
     CHECK(core::region_labels(r.surface).size() == 116);
 }
 
