@@ -81,8 +81,8 @@ bool same_cycle(const Tri& t, std::int32_t a, std::int32_t b, std::int32_t c) {
 
 /// The layered advancing front of §3.1-3.2 for one region.
 ///
-/// Memory per million elements: nodes 24 B xyz + 60 B attributes + 68 B in the node ADT while
-/// on the front; front faces 64 B + 68 B in the face ADT; tets 16 B + 16 B links + 5 B. About
+/// Memory per million elements: nodes 24 B xyz + 60 B attributes + 88 B in the node ADT while
+/// on the front; front faces 64 B + 88 B in the face ADT; tets 16 B + 16 B links + 5 B. About
 /// 0.1 GB per million tets in all.
 class RegionMesher {
 public:
@@ -253,11 +253,6 @@ private:
         }
         return true;
     }
-    core::AdtBox face_box(std::int32_t f) const {
-        core::AdtBox b;
-        for (std::int32_t v : fv_[f]) b.extend(x(v));
-        return b;
-    }
 
     // ---- front faces ----------------------------------------------------------------------
     std::int32_t add_face(std::int32_t a, std::int32_t b, std::int32_t c) {
@@ -286,7 +281,11 @@ private:
         fnormal_[3 * f + 2] = u.z();
         ++fstamp_[f];
         falive_[f] = 1;
-        face_adt_.insert(f, face_box(f));
+        {
+            core::AdtBox box;
+            for (const std::int32_t v : {a, b, c}) box.extend(x(v));
+            face_adt_.insert(f, box);
+        }
         const Tri& t = fv_[f];
         for (int k = 0; k < 3; ++k) {
             if (face_head_[t[k]] < 0) adt_.insert(t[k], x(t[k]));  // joins the front
@@ -334,6 +333,22 @@ private:
             if (t[0] == v || t[1] == v || t[2] == v) return true;
         }
         return false;
+    }
+
+    /// One walk of the front faces at u: whether u-v is a front edge (is_front_edge) and
+    /// whether a front face has the nodes {u, w, v} (find_face >= 0).
+    void edge_and_face(std::int32_t u, std::int32_t w, std::int32_t v, bool& edge,
+                       bool& face) const {
+        edge = face = false;
+        for (std::int32_t k = face_head_[u]; k >= 0; k = fnext_[k]) {
+            const Tri& t = fv_[k / 3];
+            if (t[0] != v && t[1] != v && t[2] != v) continue;
+            edge = true;
+            if (t[0] == w || t[1] == w || t[2] == w) {
+                face = true;
+                return;
+            }
+        }
     }
 
     // ---- tets -----------------------------------------------------------------------------
@@ -470,10 +485,22 @@ private:
                 const double fmax = std::max({p(t[0])[k], p(t[1])[k], p(t[2])[k]});
                 apart = fmax < lo[k] || fmin > hi[k];
             }
+            // A node of the triangle that spans plane i lies on it exactly; when the others
+            // lie beyond it, the triangle meets the closed tet only in nodes (or the edge)
+            // they share, which fails none of the tests below: the triangles around the tet's
+            // own nodes, most of `near`, need no exact test.
             for (int i = 0; i < 4 && !apart; ++i) {
                 apart = true;
-                for (int k = 0; k < 3 && apart; ++k)
-                    apart = pn[i].dot(x(t[k])) - pd[i] > ptol[i];
+                int beyond = 0;
+                const std::int32_t s0 = tv[kF[i][0]], s1 = tv[kF[i][1]], s2 = tv[kF[i][2]];
+                for (int k = 0; k < 3 && apart; ++k) {
+                    const std::int32_t w = t[k];
+                    if (w == s0 || w == s1 || w == s2) continue;
+                    const double* pw = p(w);
+                    apart = pn[i][0] * pw[0] + pn[i][1] * pw[1] + pn[i][2] * pw[2] - pd[i] > ptol[i];
+                    ++beyond;
+                }
+                apart = apart && beyond > 0;
             }
             if (apart) continue;
             for (std::int32_t w : t) {
@@ -526,8 +553,9 @@ private:
             const std::int32_t ai = bk.a[i], aj = bk.a[(i + 1) % 3];
             const V3& Ai = bk.A[i];
             const V3& Aj = bk.A[(i + 1) % 3];
-            const bool edge_new = !is_front_edge(ai, q);
-            const bool face_new = find_face(ai, aj, q) < 0;
+            bool has_edge = false, has_face = false;
+            edge_and_face(ai, aj, q, has_edge, has_face);
+            const bool edge_new = !has_edge, face_new = !has_face;
             if (edge_new) {
                 const V3 d = (P - Ai).normalized();
                 // Over the manifold test: P above the plane of some front face at A_ki (the
@@ -713,9 +741,10 @@ void RegionMesher::setup_level() {
         bool have_faces = false;  // front faces of the box of the sphere, fetched once
         {
             for (std::int32_t i : ids) {
-                const double d = (x(i) - x(j)).norm();
-                if (d > R || d == 0.0 || !(rs[j] < rs[i])) continue;
+                if (!(rs[j] < rs[i])) continue;
                 if (node_normal(i).dot(Nj) >= 0.5) continue;  // angle must exceed 60 degrees
+                const double d = (x(i) - x(j)).norm();
+                if (d > R || d == 0.0) continue;
                 const double coji = 0.05 * (3.0 * rs[i] / d) * (ho[j] - ho[i]) / ho[j];
                 const double cji = std::min(std::max(coji, -0.6), 0.5);
                 const double coij = 0.05 * (3.0 * rs[j] / d) * (ho[i] - ho[j]) / ho[i];
