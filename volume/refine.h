@@ -59,7 +59,8 @@ void validate(const RefineParams& params);
 /// refine.flips_4_4, refine.flips_n_m, refine.smoothing_moves, refine.flip_attempts,
 /// refine.edge_rings, refine.sliver.{flips,moves,removals,insertions}; refine.sliver.<figure> and
 /// refine.final.<figure> after the sliver pass).
-/// Deterministic (sequential edits in id order).
+/// Deterministic (sequential edits in id order; the tets are first put in order of their
+/// smallest node, so the input's tet order does not matter).
 core::TetMesh refine(const core::TetMesh& mesh, const RefineParams& params, core::StageContext& ctx);
 
 }  // namespace frontmesh::volume

@@ -96,6 +96,74 @@ double tet_cost(const TetTopology& topo, const Tet& t, Objective objective) {
     return std::max(s.skewness, 1.0 - s.min_dihedral_deg / kRegularDihedralDeg);
 }
 
+void RefineOps::prepare_cache() const {
+    if (cache_stamp_ != topo_.stamp()) {  // edited elsewhere (or the first call): start afresh
+        cache_.assign(static_cast<std::size_t>(topo_.tet_capacity()), CachedShape{});
+        cache_stamp_ = topo_.stamp();
+        bad_valid_ = false;
+    } else if (cache_.size() < static_cast<std::size_t>(topo_.tet_capacity())) {
+        cache_.resize(static_cast<std::size_t>(topo_.tet_capacity()));
+    }
+}
+
+void RefineOps::touch(std::span<const std::int32_t> tets) {
+    if (touched_mark_.size() < static_cast<std::size_t>(topo_.tet_capacity()))
+        touched_mark_.resize(static_cast<std::size_t>(topo_.tet_capacity()), 0);
+    for (const std::int32_t t : tets)
+        if (!touched_mark_[static_cast<std::size_t>(t)]) {
+            touched_mark_[static_cast<std::size_t>(t)] = 1;
+            touched_.push_back(t);
+        }
+}
+
+void RefineOps::edited(std::span<const std::int32_t> tets) {
+    if (cache_.size() < static_cast<std::size_t>(topo_.tet_capacity()))
+        cache_.resize(static_cast<std::size_t>(topo_.tet_capacity()));
+    // Every change made here keeps tets strictly positive (checked exactly before it is made).
+    for (const std::int32_t t : tets)
+        cache_[static_cast<std::size_t>(t)].known = kOrientation | kPositive;
+    cache_stamp_ = topo_.stamp();
+    touch(tets);
+}
+
+TetShape RefineOps::shape(std::int32_t t, bool dihedral) const {
+    if (cache_stamp_ != topo_.stamp() || static_cast<std::size_t>(t) >= cache_.size())
+        prepare_cache();
+    CachedShape& c = cache_[static_cast<std::size_t>(t)];
+    const std::uint8_t need = dihedral ? kSkewness | kDihedral : kSkewness;
+    if ((c.known & need) != need) {
+        // tet_shape computes the skewness identically with or without the dihedral angle.
+        const Tet& tt = topo_.tet(t);
+        const TetShape s = tet_shape(topo_.xyz(tt[0]), topo_.xyz(tt[1]), topo_.xyz(tt[2]),
+                                     topo_.xyz(tt[3]), dihedral);
+        c.skewness = s.skewness;
+        c.known |= kSkewness;
+        if (dihedral) {
+            c.min_dihedral_deg = s.min_dihedral_deg;
+            c.known |= kDihedral;
+        }
+        return s;
+    }
+    return {c.skewness, dihedral ? c.min_dihedral_deg : 0.0};
+}
+
+bool RefineOps::is_positive(std::int32_t t) const {
+    if (cache_stamp_ != topo_.stamp() || static_cast<std::size_t>(t) >= cache_.size())
+        prepare_cache();
+    CachedShape& c = cache_[static_cast<std::size_t>(t)];
+    if (!(c.known & kOrientation))
+        c.known |= kOrientation | (tet_positive(topo_, topo_.tet(t)) ? kPositive : 0);
+    return (c.known & kPositive) != 0;
+}
+
+double RefineOps::cost(std::int32_t t, Objective objective) const {
+    const TetShape s = shape(t, objective == Objective::Combined);
+    if (objective == Objective::Skewness) return s.skewness;
+    // As tet_cost.
+    if (topo_.has_poor_face(topo_.tet(t))) return 1.0 - s.min_dihedral_deg / kRegularDihedralDeg;
+    return std::max(s.skewness, 1.0 - s.min_dihedral_deg / kRegularDihedralDeg);
+}
+
 /// §3.3.1: unconditional removal of interior nodes with small stars.
 void RefineOps::remove_nodes() {
     for (int sweep = 0; sweep < 2; ++sweep) {
@@ -113,11 +181,47 @@ void RefineOps::remove_nodes() {
 /// §3.3.2: one Gauss-Seidel sweep of angle-based smoothing over interior nodes (id order).
 void RefineOps::smooth() {
     node_settled_.resize(static_cast<std::size_t>(topo_.node_capacity()), 0);
-    for (std::int32_t v = topo_.mesh().surface_vertices; v < topo_.node_capacity(); ++v) {
-        if (topo_.node_tet(v) < 0 || node_settled_[static_cast<std::size_t>(v)]) continue;
-        if (smooth_node(v)) ++counts.smoothing_moves;
-        else node_settled_[static_cast<std::size_t>(v)] = 1;  // until its star changes
+    // Smoothing changes no connectivity: the stars come from one node -> tets table (tets in id
+    // order) instead of a walk per node. A node on a wall face has no closed star.
+    const auto n_nodes = static_cast<std::size_t>(topo_.node_capacity());
+    star_offset_.assign(n_nodes + 1, 0);
+    on_wall_.assign(n_nodes, 0);
+    for (std::int32_t t = 0; t < topo_.tet_capacity(); ++t) {
+        if (!topo_.alive(t)) continue;
+        const Tet& tt = topo_.tet(t);
+        for (int i = 0; i < 4; ++i) {
+            ++star_offset_[static_cast<std::size_t>(tt[static_cast<std::size_t>(i)]) + 1];
+            if (topo_.neighbor(t, i) < 0)
+                for (const std::int32_t w : tet_face(tt, i))
+                    on_wall_[static_cast<std::size_t>(w)] = 1;
+        }
     }
+    for (std::size_t v = 0; v < n_nodes; ++v) star_offset_[v + 1] += star_offset_[v];
+    star_tets_.resize(static_cast<std::size_t>(star_offset_[n_nodes]));
+    {
+        std::vector<std::int32_t> fill(star_offset_.begin(), star_offset_.end() - 1);
+        for (std::int32_t t = 0; t < topo_.tet_capacity(); ++t) {
+            if (!topo_.alive(t)) continue;
+            for (const std::int32_t w : topo_.tet(t))
+                star_tets_[static_cast<std::size_t>(fill[static_cast<std::size_t>(w)]++)] = t;
+        }
+    }
+    for (std::int32_t v = topo_.mesh().surface_vertices; v < topo_.node_capacity(); ++v) {
+        const auto k = static_cast<std::size_t>(v);
+        if (star_offset_[k] == star_offset_[k + 1] || node_settled_[k]) continue;
+        bool moved = false;
+        if (!on_wall_[k]) {
+            star_.assign(star_tets_.begin() + star_offset_[k],
+                         star_tets_.begin() + star_offset_[k + 1]);
+            moved = smooth_star(v);
+        }
+        if (moved)
+            ++counts.smoothing_moves;
+        else
+            node_settled_[k] = 1;  // until its star changes
+    }
+    std::vector<std::int32_t>().swap(
+        star_tets_);  // stale after the next edit; 16 MB per million tets
 }
 
 void RefineOps::changed_tets(std::span<const std::int32_t> tets) {
@@ -136,8 +240,26 @@ void RefineOps::changed_tets(std::span<const std::int32_t> tets) {
     }
 }
 
+void RefineOps::moved_node(std::int32_t v) {
+    // As changed_tets(star_), cheaper: the faces of a star tet through v lead to star tets, the
+    // face opposite v leads outside; the star's nodes are v and link_.
+    if (node_settled_.size() < static_cast<std::size_t>(topo_.node_capacity()))
+        node_settled_.resize(static_cast<std::size_t>(topo_.node_capacity()), 0);
+    if (settled_.size() < static_cast<std::size_t>(topo_.tet_capacity()))
+        settled_.resize(static_cast<std::size_t>(topo_.tet_capacity()), 0);
+    for (const std::int32_t t : star_) {
+        settled_[static_cast<std::size_t>(t)] = 0;
+        const std::int32_t u = topo_.neighbor(t, local_index(topo_.tet(t), v));
+        if (u >= 0) settled_[static_cast<std::size_t>(u)] = 0;
+    }
+    node_settled_[static_cast<std::size_t>(v)] = 0;
+    for (const std::int32_t w : link_) node_settled_[static_cast<std::size_t>(w)] = 0;
+}
+
 void RefineOps::apply(std::span<const std::int32_t> old_tets, std::span<const Tet> new_tets, core::Label region) {
+    prepare_cache();
     topo_.replace(old_tets, new_tets, region, &new_ids_);
+    edited(new_ids_);
     changed_tets(new_ids_);
 }
 
@@ -150,8 +272,7 @@ void RefineOps::flips() {
         for (const std::int32_t t : candidates) {
             // Tets tried without success are skipped until they or a neighbour change.
             if (!topo_.alive(t) || settled_[static_cast<std::size_t>(t)]) continue;
-            if (tet_cost(topo_, topo_.tet(t), Objective::Skewness) <= params_.flip_skewness)
-                continue;
+            if (cost(t, Objective::Skewness) <= params_.flip_skewness) continue;
             if (improve_by_flips(t, Objective::Skewness, params_.flip_delaunay_test)) ++changed;
             else settled_[static_cast<std::size_t>(t)] = 1;
         }
@@ -171,7 +292,7 @@ void RefineOps::slivers() {
         std::size_t changed = 0;
         for (const std::int32_t t : candidates) {
             if (!topo_.alive(t) || settled_[static_cast<std::size_t>(t)]) continue;
-            if (tet_cost(topo_, topo_.tet(t), Objective::Combined) <= target) continue;
+            if (cost(t, Objective::Combined) <= target) continue;
             if (improve_by_flips(t, Objective::Combined, false)) {
                 ++counts.sliver_flips;
                 ++changed;
@@ -207,28 +328,65 @@ void RefineOps::slivers() {
 }
 
 std::vector<std::int32_t> RefineOps::bad_tets(Objective objective, double threshold) const {
-    // Costs in parallel (each tet independent), collected in id order: deterministic.
-    std::vector<double> cost(static_cast<std::size_t>(topo_.tet_capacity()), -1.0);
-    tbb::parallel_for(tbb::blocked_range<std::int32_t>(0, topo_.tet_capacity(), 8192),
-                      [&](const tbb::blocked_range<std::int32_t>& range) {
-        for (std::int32_t t = range.begin(); t != range.end(); ++t)
-            if (topo_.alive(t)) cost[static_cast<std::size_t>(t)] = tet_cost(topo_, topo_.tet(t), objective);
-    });
-    std::vector<std::pair<double, std::int32_t>> bad;
-    for (std::int32_t t = 0; t < topo_.tet_capacity(); ++t)
-        if (cost[static_cast<std::size_t>(t)] > threshold) bad.emplace_back(cost[static_cast<std::size_t>(t)], t);
-    std::sort(bad.begin(), bad.end(), [](const auto& x, const auto& y) {
+    prepare_cache();
+    const auto worse = [](const std::pair<double, std::int32_t>& x,
+                          const std::pair<double, std::int32_t>& y) {
         return x.first != y.first ? x.first > y.first : x.second < y.second;
-    });
+    };
+    if (touched_mark_.size() < static_cast<std::size_t>(topo_.tet_capacity()))
+        touched_mark_.resize(static_cast<std::size_t>(topo_.tet_capacity()), 0);
+    if (bad_valid_ && bad_objective_ == objective && bad_threshold_ == threshold) {
+        // Only the tets changed since the last list have a new cost: drop them from it, then
+        // merge them back in with their new costs (the same list as a full scan, cheaper).
+        std::vector<std::pair<double, std::int32_t>> kept, fresh;
+        kept.reserve(bad_list_.size());
+        for (const auto& b : bad_list_)
+            if (topo_.alive(b.second) && !touched_mark_[static_cast<std::size_t>(b.second)])
+                kept.push_back(b);
+        for (const std::int32_t t : touched_) {
+            touched_mark_[static_cast<std::size_t>(t)] = 0;
+            if (!topo_.alive(t)) continue;
+            const double c = cost(t, objective);
+            if (c > threshold) fresh.emplace_back(c, t);
+        }
+        touched_.clear();
+        std::sort(fresh.begin(), fresh.end(), worse);
+        bad_list_.resize(kept.size() + fresh.size());
+        std::merge(kept.begin(), kept.end(), fresh.begin(), fresh.end(), bad_list_.begin(), worse);
+    } else {
+        // Costs in parallel (each tet independent; each cache entry written by one task),
+        // collected per block and joined in block order: deterministic.
+        constexpr std::int32_t kBlock = 8192;
+        const std::int32_t n = topo_.tet_capacity();
+        std::vector<std::vector<std::pair<double, std::int32_t>>> part(
+            static_cast<std::size_t>((n + kBlock - 1) / kBlock));
+        tbb::parallel_for(
+            std::int32_t{0}, static_cast<std::int32_t>(part.size()), [&](std::int32_t b) {
+                auto& out = part[static_cast<std::size_t>(b)];
+                for (std::int32_t t = b * kBlock; t < std::min(n, (b + 1) * kBlock); ++t) {
+                    if (!topo_.alive(t)) continue;
+                    const double c = cost(t, objective);
+                    if (c > threshold) out.emplace_back(c, t);
+                }
+            });
+        bad_list_.clear();
+        for (const auto& p : part) bad_list_.insert(bad_list_.end(), p.begin(), p.end());
+        std::sort(bad_list_.begin(), bad_list_.end(), worse);
+        for (const std::int32_t t : touched_) touched_mark_[static_cast<std::size_t>(t)] = 0;
+        touched_.clear();
+        bad_valid_ = true;
+        bad_objective_ = objective;
+        bad_threshold_ = threshold;
+    }
     std::vector<std::int32_t> out;
-    out.reserve(bad.size());
-    for (const auto& b : bad) out.push_back(b.second);
+    out.reserve(bad_list_.size());
+    for (const auto& b : bad_list_) out.push_back(b.second);
     return out;
 }
 
 double RefineOps::max_cost(std::span<const std::int32_t> tets, Objective objective) const {
     double worst = 0.0;
-    for (const std::int32_t t : tets) worst = std::max(worst, tet_cost(topo_, topo_.tet(t), objective));
+    for (const std::int32_t t : tets) worst = std::max(worst, cost(t, objective));
     return worst;
 }
 
@@ -236,8 +394,7 @@ double RefineOps::max_cost(std::span<const std::int32_t> tets, Objective objecti
 /// filled by a fan from one of its link nodes (all new tets positive, exact). The fan with
 /// the smallest largest cost is used; with `conditional` only when that beats the star.
 bool RefineOps::remove_node(std::int32_t v, int max_tets, Objective objective, bool conditional) {
-    if (!topo_.star(v, star_)) return false;
-    if (static_cast<int>(star_.size()) > max_tets) return false;
+    if (!topo_.star(v, star_, static_cast<std::size_t>(max_tets))) return false;
     link_.clear();
     for (const std::int32_t t : star_)
         for (const std::int32_t w : topo_.tet(t))
@@ -282,29 +439,23 @@ Eigen::Vector3d RefineOps::angle_based_target(std::int32_t v) {
     // ring node twice: the axis direction is unchanged.
     const V3 pv = topo_.point(v);
     axes_.assign(link_.size(), V3::Zero());
-    auto slot = [&](std::int32_t w) {
-        return static_cast<std::size_t>(std::find(link_.begin(), link_.end(), w) - link_.begin());
-    };
-    for (const std::int32_t t : star_) {
-        const Tet& tt = topo_.tet(t);
-        std::array<std::int32_t, 3> others{};
-        int k = 0;
-        for (const std::int32_t w : tt)
-            if (w != v) others[static_cast<std::size_t>(k++)] = w;
+    link_xyz_.resize(link_.size());
+    for (std::size_t k = 0; k < link_.size(); ++k) link_xyz_[k] = topo_.point(link_[k]);
+    for (const auto& others : star_slots_)  // the link slots of each star tet's other nodes
         for (int x = 0; x < 3; ++x)
             for (int y = x + 1; y < 3; ++y) {
-                const std::int32_t j = others[static_cast<std::size_t>(x)], r = others[static_cast<std::size_t>(y)];
-                V3 u = topo_.point(r) - topo_.point(j);
+                const auto j = static_cast<std::size_t>(others[static_cast<std::size_t>(x)]);
+                const auto r = static_cast<std::size_t>(others[static_cast<std::size_t>(y)]);
+                V3 u = link_xyz_[r] - link_xyz_[j];
                 const double length = u.norm();
                 if (length == 0.0) continue;
                 u /= length;
-                axes_[slot(j)] += u;
-                axes_[slot(r)] -= u;
+                axes_[j] += u;
+                axes_[r] -= u;
             }
-    }
     V3 sum = V3::Zero();
     for (std::size_t k = 0; k < link_.size(); ++k) {
-        const V3 pj = topo_.point(link_[k]);
+        const V3& pj = link_xyz_[k];
         const V3& axis = axes_[k];
         const V3 jv = pv - pj;
         const double length = jv.norm();
@@ -318,45 +469,96 @@ Eigen::Vector3d RefineOps::angle_based_target(std::int32_t v) {
 
 /// Largest cost and the cost sum of the star of v with v at p; +inf when a tet would not be
 /// strictly positive (exact).
-std::pair<double, double> RefineOps::star_cost(std::int32_t v, const V3& p, Objective objective) {
-    const V3 old = topo_.point(v);
-    topo_.set_point(v, p);
+std::pair<double, double> RefineOps::star_cost(std::int32_t v, const V3& p, Objective objective,
+                                               double bound) {
+    // v's coordinates replaced by p in each tet, without moving v: nothing to restore, and the
+    // cached shapes of the star stay valid.
+    trial_skewness_.clear();
     double worst = 0.0, sum = 0.0;
     for (const std::int32_t t : star_) {
         const Tet& tt = topo_.tet(t);
-        if (!tet_positive(topo_, tt)) {
+        std::array<const double*, 4> x{};
+        for (int k = 0; k < 4; ++k) {
+            const std::int32_t w = tt[static_cast<std::size_t>(k)];
+            x[static_cast<std::size_t>(k)] = w == v ? p.data() : topo_.xyz(w);
+        }
+        // The cost first: above `bound` the answer is +inf whether or not t is positive.
+        const TetShape s = tet_shape(x[0], x[1], x[2], x[3], objective == Objective::Combined);
+        double c = s.skewness;
+        if (objective == Objective::Combined) {
+            const double dihedral_cost = 1.0 - s.min_dihedral_deg / kRegularDihedralDeg;
+            c = topo_.has_poor_face(tt) ? dihedral_cost : std::max(s.skewness, dihedral_cost);
+        }
+        if (c > bound || !positive_tet(x[0], x[1], x[2], x[3])) {
             worst = kInf;
             break;
         }
-        const double c = tet_cost(topo_, tt, objective);
+        trial_skewness_.push_back(s.skewness);
         worst = std::max(worst, c);
         sum += c;
     }
-    topo_.set_point(v, old);
     return {worst, sum};
 }
 
 void RefineOps::collect_link(std::int32_t v) {
+    if (link_slot_.size() < static_cast<std::size_t>(topo_.node_capacity()))
+        link_slot_.resize(static_cast<std::size_t>(topo_.node_capacity()), -1);
+    for (const std::int32_t w : slotted_) link_slot_[static_cast<std::size_t>(w)] = -1;
+    slotted_.clear();
     link_.clear();
-    for (const std::int32_t t : star_)
-        for (const std::int32_t w : topo_.tet(t))
-            if (w != v && std::find(link_.begin(), link_.end(), w) == link_.end()) link_.push_back(w);
+    star_slots_.clear();
+    for (const std::int32_t t : star_) {
+        std::array<std::int32_t, 3> others{};
+        int k = 0;
+        for (const std::int32_t w : topo_.tet(t)) {
+            if (w == v) continue;
+            if (link_slot_[static_cast<std::size_t>(w)] < 0) {
+                link_slot_[static_cast<std::size_t>(w)] = static_cast<std::int32_t>(link_.size());
+                link_.push_back(w);
+            }
+            if (k < 3)
+                others[static_cast<std::size_t>(k++)] = link_slot_[static_cast<std::size_t>(w)];
+        }
+        star_slots_.push_back(others);
+    }
+    slotted_ = link_;
 }
 
 bool RefineOps::smooth_node(std::int32_t v) {
     if (!topo_.star(v, star_)) return false;
+    return smooth_star(v);
+}
+
+bool RefineOps::smooth_star(std::int32_t v) {
+    prepare_cache();
+    // The star's current costs from the cache (same order and sum as star_cost at p0).
+    double old_worst = 0.0, old_sum = 0.0;
+    for (const std::int32_t t : star_) {
+        if (!is_positive(t)) {
+            old_worst = kInf;
+            break;
+        }
+        const double c = shape(t, false).skewness;
+        old_worst = std::max(old_worst, c);
+        old_sum += c;
+    }
+    if (old_worst <= params_.smoothing_skewness) return false;  // star good enough already
     collect_link(v);
     const V3 p0 = topo_.point(v);
-    const auto [old_worst, old_sum] = star_cost(v, p0, Objective::Skewness);
-    if (old_worst <= params_.smoothing_skewness) return false;  // star good enough already
     const V3 target = angle_based_target(v);
     for (const double s : {1.0, 0.5, 0.25}) {
         const V3 p = p0 + s * (target - p0);
-        const auto [worst, sum] = star_cost(v, p, Objective::Skewness);
+        const auto [worst, sum] = star_cost(v, p, Objective::Skewness, old_worst);
         // The worst incident quality must not get worse, and the star must gain overall.
         if (worst <= old_worst && sum < old_sum) {
             topo_.set_point(v, p);
-            changed_tets(star_);
+            moved_node(v);
+            // The shapes just computed at p are the star's new shapes (all positive).
+            for (std::size_t k = 0; k < star_.size(); ++k)
+                cache_[static_cast<std::size_t>(star_[k])] = {trial_skewness_[k], 0.0,
+                                                              kSkewness | kOrientation | kPositive};
+            cache_stamp_ = topo_.stamp();
+            touch(star_);
             return true;
         }
     }
@@ -397,7 +599,7 @@ bool RefineOps::move_node(std::int32_t v, const Tet& sliver, int i) {
     double best_worst = old_worst, best_sum = old_sum;
     int best = -1;
     for (std::size_t k = 0; k < candidates.size(); ++k) {
-        const auto [worst, sum] = star_cost(v, candidates[k], Objective::Combined);
+        const auto [worst, sum] = star_cost(v, candidates[k], Objective::Combined, best_worst);
         if (worst < best_worst || (worst == best_worst && sum < best_sum && best >= 0)) {
             best_worst = worst;
             best_sum = sum;
@@ -406,14 +608,16 @@ bool RefineOps::move_node(std::int32_t v, const Tet& sliver, int i) {
     }
     if (best < 0 || !(best_worst < old_worst)) return false;
     {
-        const std::size_t before = over_08(topo_, star_);
-        topo_.set_point(v, candidates[static_cast<std::size_t>(best)]);
-        const std::size_t after = over_08(topo_, star_);
-        topo_.set_point(v, p0);
+        std::size_t before = 0;
+        for (const std::int32_t t : star_) before += shape(t, false).skewness > 0.8 ? 1 : 0;
+        star_cost(v, candidates[static_cast<std::size_t>(best)], Objective::Skewness);
+        const auto after = static_cast<std::size_t>(std::count_if(
+            trial_skewness_.begin(), trial_skewness_.end(), [](double x) { return x > 0.8; }));
         if (after > before) return false;
     }
     topo_.set_point(v, candidates[static_cast<std::size_t>(best)]);
-    changed_tets(star_);
+    edited(star_);
+    moved_node(v);
     return true;
 }
 
@@ -446,15 +650,23 @@ bool RefineOps::remove_edge(std::int32_t a, std::int32_t b, std::int32_t t, Obje
                                             best[static_cast<std::size_t>(k)][static_cast<std::size_t>(j)]);
                 if (sub >= value || sub >= old_worst) continue;
                 const auto pair = new_tets(i, k, j);
-                double c = 0.0;
+                // A pair costing `bound` or more is never chosen, or leaves a value no
+                // accepted triangulation uses (every larger interval skips it, as sub >=
+                // old_worst): stop evaluating it there.
+                const double bound = std::min(value, old_worst);
+                double c = sub;
                 for (const Tet& nt : pair) {
                     if (!tet_positive(topo_, nt)) {
                         c = kInf;
                         break;
                     }
-                    c = std::max(c, tet_cost(topo_, nt, objective));
+                    const double x = tet_cost(topo_, nt, objective);
+                    if (x >= bound) {
+                        c = kInf;
+                        break;
+                    }
+                    c = std::max(c, x);
                 }
-                c = std::max(c, sub);
                 if (c < value) {
                     value = c;
                     choice = k;
@@ -692,7 +904,9 @@ bool RefineOps::insert_node(std::int32_t t, Objective objective) {
         for (const std::int32_t c : chosen_cavity)
             for (const std::int32_t v : topo_.tet(c))
                 level = std::max(level, topo_.mesh().level[static_cast<std::size_t>(v)]);
+    prepare_cache();
     const std::int32_t v = topo_.add_node(chosen_p, level);
+    edited({});  // a new node changes no tet yet
     candidate_.clear();
     for (const auto& f : chosen_boundary) candidate_.push_back({f[0], f[1], f[2], v});
     apply(chosen_cavity, candidate_, region);
@@ -709,8 +923,7 @@ bool RefineOps::flip_2_3(std::int32_t t, int i, Objective objective) {
     for (const std::int32_t w : topo_.tet(u))
         if (w != f[0] && w != f[1] && w != f[2]) b = w;
     const double old_worst =
-        unconditional_ ? kInf
-                       : std::max(tet_cost(topo_, tt, objective), tet_cost(topo_, topo_.tet(u), objective));
+        unconditional_ ? kInf : std::max(cost(t, objective), cost(u, objective));
     candidate_.clear();
     double worst = 0.0;
     for (int k = 0; k < 4; ++k) {
@@ -734,6 +947,25 @@ bool RefineOps::flip_2_3(std::int32_t t, int i, Objective objective) {
 bool RefineOps::improve_by_flips(std::int32_t t, Objective objective, bool delaunay_test) {
     ++counts.flip_attempts;
     const Tet tt = topo_.tet(t);
+    // The faces that may be tried: with the Delaunay test, those whose node A lies inside the
+    // circumsphere of the tet T2 across them (decided first: usually none, and then the face
+    // areas are not needed).
+    std::array<bool, 4> open{true, true, true, true};
+    if (delaunay_test) {
+        bool any = false;
+        for (int i = 0; i < 4; ++i) {
+            const std::int32_t u = topo_.neighbor(t, i);
+            // insphere wants orient3d(p0..p3) > 0, the opposite of our VTK-positive order:
+            // swap two nodes.
+            const Tet* ut = u >= 0 ? &topo_.tet(u) : nullptr;
+            open[static_cast<std::size_t>(i)] =
+                ut &&
+                core::insphere(topo_.xyz((*ut)[1]), topo_.xyz((*ut)[0]), topo_.xyz((*ut)[2]),
+                               topo_.xyz((*ut)[3]), topo_.xyz(tt[static_cast<std::size_t>(i)])) > 0;
+            any = any || open[static_cast<std::size_t>(i)];
+        }
+        if (!any) return false;
+    }
     std::array<std::pair<double, int>, 4> order;
     for (int i = 0; i < 4; ++i) {
         const auto f = tet_face(tt, i);
@@ -745,15 +977,7 @@ bool RefineOps::improve_by_flips(std::int32_t t, Objective objective, bool delau
     int n_tried = 0;
     for (const auto& [negative_area, i] : order) {
         const std::int32_t u = topo_.neighbor(t, i);
-        if (delaunay_test) {
-            if (u < 0) continue;
-            // Is A inside the circumsphere of T2? insphere wants orient3d(p0..p3) > 0, the
-            // opposite of our VTK-positive order: swap two nodes.
-            const Tet& ut = topo_.tet(u);
-            if (core::insphere(topo_.xyz(ut[1]), topo_.xyz(ut[0]), topo_.xyz(ut[2]), topo_.xyz(ut[3]),
-                               topo_.xyz(tt[static_cast<std::size_t>(i)])) <= 0)
-                continue;
-        }
+        if (!open[static_cast<std::size_t>(i)]) continue;
         const auto f = tet_face(tt, i);
         for (int e = 0; e < 3; ++e) {
             std::array<std::int32_t, 2> edge{f[static_cast<std::size_t>(e)], f[static_cast<std::size_t>((e + 1) % 3)]};

@@ -4,8 +4,10 @@
 // pass's node moves. Every change is validated with exact orientation tests and never crosses a
 // wall (boundary/interface face or region change). Sequential and deterministic.
 
+#include <array>
 #include <cstddef>
 #include <cstdint>
+#include <limits>
 #include <span>
 #include <utility>
 #include <vector>
@@ -67,9 +69,21 @@ public:
     /// then a Steiner node (insert_node).
     void slivers();
 
+    /// Alive tets costing more than `threshold`, worst first (ties by id). A repeated call with
+    /// the same objective and threshold measures only the tets changed since.
     std::vector<std::int32_t> bad_tets(Objective objective, double threshold) const;
 
     double max_cost(std::span<const std::int32_t> tets, Objective objective) const;
+
+    /// Shape of alive tet t (tet_shape; the dihedral angle only when `dihedral`), cached per tet
+    /// until this object changes t; any edit of the topology made elsewhere (its stamp())
+    /// drops the whole cache. Thread-safe for distinct tets after prepare_cache().
+    TetShape shape(std::int32_t t, bool dihedral) const;
+    /// tet_cost of alive tet t through the cache.
+    double cost(std::int32_t t, Objective objective) const;
+    /// Sizes the shape cache for every tet id, dropping it after an edit made elsewhere (call
+    /// before shape() from several threads).
+    void prepare_cache() const;
 
     /// Removes interior node v when its star has at most `max_tets` tets and the hole can be
     /// filled by a fan from one of its link nodes (all new tets positive, exact). The fan with
@@ -81,9 +95,12 @@ public:
     /// (N_j, v) (the 3-D analogue of the angle bisector), keeping |N_j v|; the mean is the target.
     Eigen::Vector3d angle_based_target(std::int32_t v);
 
-    /// Largest cost and the cost sum of the star of v with v at p; +inf when a tet would not be
-    /// strictly positive (exact).
-    std::pair<double, double> star_cost(std::int32_t v, const Eigen::Vector3d& p, Objective objective);
+    /// Largest cost and the cost sum of the star of v (star_, as left by collect_link's caller)
+    /// with v at p; the mesh is not changed. +inf when a tet would not be strictly positive
+    /// (exact), or as soon as a tet's cost exceeds `bound` (the sum is then partial).
+    std::pair<double, double> star_cost(std::int32_t v, const Eigen::Vector3d& p,
+                                        Objective objective,
+                                        double bound = std::numeric_limits<double>::infinity());
 
     void collect_link(std::int32_t v);
 
@@ -116,11 +133,15 @@ public:
     bool improve_by_flips(std::int32_t t, Objective objective, bool delaunay_test);
 
 private:
+    /// smooth_node with the closed star of v already in star_.
+    bool smooth_star(std::int32_t v);
     /// Replaces tets through the topology and marks the new tets, their neighbours and nodes
     /// as changed.
     void apply(std::span<const std::int32_t> old_tets, std::span<const Tet> new_tets, core::Label region);
     /// Forgets that `tets` (and their neighbours and nodes) were tried without success.
     void changed_tets(std::span<const std::int32_t> tets);
+    /// changed_tets(star_) after node v (star star_, link link_) moved.
+    void moved_node(std::int32_t v);
 
     TetTopology& topo_;
     RefineParams params_;
@@ -130,6 +151,42 @@ private:
     std::vector<std::int32_t> new_ids_;
     std::vector<Eigen::Vector3d> axes_;
     std::vector<std::uint8_t> settled_;       ///< per tet: flips tried, nothing found
+    /// Per tet: cached shape (shape()); `known` says which parts are valid. 24 MB per million
+    /// tets.
+    struct CachedShape {
+        double skewness = 1.0;
+        double min_dihedral_deg = 0.0;
+        std::uint8_t known = 0;  ///< kSkewness | kDihedral | kOrientation | kPositive bits
+    };
+    static constexpr std::uint8_t kSkewness = 1, kDihedral = 2, kOrientation = 4, kPositive = 8;
+    mutable std::vector<CachedShape> cache_;
+    mutable std::uint64_t cache_stamp_ = ~std::uint64_t{0};  ///< topo_.stamp() the cache matches
+    /// Forgets the cached shapes of `tets` (just changed here) and takes the topology's stamp.
+    void edited(std::span<const std::int32_t> tets);
+    /// Records that the shapes of `tets` changed (for bad_tets' list).
+    void touch(std::span<const std::int32_t> tets);
+    /// bad_tets' last list (cost, tet; worst first) for bad_objective_ and bad_threshold_, and
+    /// the tets changed since (touched_, marked in touched_mark_): the next call redoes only
+    /// those. 16 MB per million listed tets.
+    mutable std::vector<std::pair<double, std::int32_t>> bad_list_;
+    mutable bool bad_valid_ = false;
+    mutable Objective bad_objective_ = Objective::Skewness;
+    mutable double bad_threshold_ = 0.0;
+    mutable std::vector<std::int32_t> touched_;
+    mutable std::vector<std::uint8_t> touched_mark_;
+    /// Whether alive tet t is strictly positive (exact), cached with its shape.
+    bool is_positive(std::int32_t t) const;
+    /// Skewness of each star_ tet from the last star_cost() (kept moves store it in the cache).
+    std::vector<double> trial_skewness_;
+    /// Per node: its index in link_ while collect_link's link is current, else -1.
+    std::vector<std::int32_t> link_slot_;
+    std::vector<std::int32_t> slotted_;  ///< the nodes whose link_slot_ is set
+    std::vector<std::array<std::int32_t, 3>>
+        star_slots_;  ///< per star_ tet: link slots of its other nodes
+    std::vector<Eigen::Vector3d> link_xyz_;
+    /// smooth(): node -> alive tets (CSR, tets in id order) and nodes on a wall face.
+    std::vector<std::int32_t> star_offset_, star_tets_;
+    std::vector<std::uint8_t> on_wall_;
     std::vector<std::uint8_t> node_settled_;  ///< per node: smoothing tried, no move kept
 };
 

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <limits>
 #include <string>
 
 #include <tbb/blocked_range.h>
@@ -31,6 +32,8 @@ Key face_key(const Tet& t, int i) {
 }
 
 bool contains(const Tet& t, std::int32_t v) { return local_index(t, v) >= 0; }
+
+bool same_key(const Key& x, const Key& y) { return x[0] == y[0] && x[1] == y[1] && x[2] == y[2]; }
 
 /// Parity of the permutation mapping positions: 0 even, 1 odd.
 int parity(std::array<int, 4> p) {
@@ -119,12 +122,18 @@ TetTopology::TetTopology(core::TetMesh mesh) : mesh_(std::move(mesh)) {
                     if (key[0] == static_cast<std::int32_t>(v)) refs.push_back({key, t, i});
                 }
             }
-            std::sort(refs.begin(), refs.end(), [](const FaceRef& x, const FaceRef& y) {
-                return x.key != y.key ? x.key < y.key : x.tet < y.tet;
+            // Every key starts with v: order by (key[1], key[2]) packed in 64 bits, then tet.
+            auto rest = [](const Key& k) {
+                return static_cast<std::uint64_t>(static_cast<std::uint32_t>(k[1])) << 32 |
+                       static_cast<std::uint32_t>(k[2]);
+            };
+            std::sort(refs.begin(), refs.end(), [&](const FaceRef& x, const FaceRef& y) {
+                const std::uint64_t rx = rest(x.key), ry = rest(y.key);
+                return rx != ry ? rx < ry : x.tet < y.tet;
             });
             for (std::size_t k = 0; k < refs.size();) {
                 std::size_t e = k + 1;
-                while (e < refs.size() && refs[e].key == refs[k].key) ++e;
+                while (e < refs.size() && same_key(refs[e].key, refs[k].key)) ++e;
                 if (e - k > 2) bad_face.store(refs[k].tet);
                 if (e - k == 2) {
                     const FaceRef& x = refs[k];
@@ -178,6 +187,7 @@ TetTopology::TetTopology(core::TetMesh mesh) : mesh_(std::move(mesh)) {
 void TetTopology::set_point(std::int32_t v, const Eigen::Vector3d& p) {
     FM_ASSERT(!is_surface_node(v));
     mesh_.point(v) = p;
+    ++stamp_;
 }
 
 bool TetTopology::is_poor_face(std::int32_t a, std::int32_t b, std::int32_t c) const {
@@ -203,11 +213,16 @@ std::int32_t TetTopology::add_node(const Eigen::Vector3d& p, std::int32_t level)
     const std::int32_t v = mesh_.add_node(p);
     if (!mesh_.level.empty()) mesh_.level.push_back(level);
     node_tet_.push_back(-1);
+    ++stamp_;
     FM_ASSERT(static_cast<std::size_t>(v) + 1 == node_tet_.size());
     return v;
 }
 
 bool TetTopology::star(std::int32_t v, std::vector<std::int32_t>& tets) const {
+    return star(v, tets, std::numeric_limits<std::size_t>::max());
+}
+
+bool TetTopology::star(std::int32_t v, std::vector<std::int32_t>& tets, std::size_t limit) const {
     tets.clear();
     const std::int32_t start = node_tet(v);
     if (start < 0) return false;
@@ -232,6 +247,7 @@ bool TetTopology::star(std::int32_t v, std::vector<std::int32_t>& tets) const {
             if (mark_[static_cast<std::size_t>(u)] != epoch_) {
                 mark_[static_cast<std::size_t>(u)] = epoch_;
                 tets.push_back(u);
+                if (tets.size() > limit) return false;
             }
         }
     }
@@ -326,6 +342,7 @@ void TetTopology::replace(std::span<const std::int32_t> old_tets, std::span<cons
     for (std::size_t j = 0; j < new_tets.size(); ++j)
         ids[j] = j < old_tets.size() ? old_tets[j] : allocate();
     for (std::size_t j = new_tets.size(); j < old_tets.size(); ++j) free_.push_back(old_tets[j]);
+    ++stamp_;
     for (std::size_t j = 0; j < new_tets.size(); ++j) {
         const auto t = static_cast<std::size_t>(ids[j]);
         mesh_.tets[t] = new_tets[j];
@@ -340,7 +357,7 @@ void TetTopology::replace(std::span<const std::int32_t> old_tets, std::span<cons
             const Key k = face_key(new_tets[j], i);
             bool done = false;
             for (Outer& o : outer) {
-                if (o.used || o.key != k) continue;
+                if (o.used || !same_key(o.key, k)) continue;
                 o.used = true;
                 done = true;
                 nbr_[static_cast<std::size_t>(ids[j])][static_cast<std::size_t>(i)] = o.tet;
@@ -352,7 +369,7 @@ void TetTopology::replace(std::span<const std::int32_t> old_tets, std::span<cons
             for (std::size_t j2 = 0; j2 < new_tets.size() && !done; ++j2) {
                 if (j2 == j) continue;
                 for (int i2 = 0; i2 < 4; ++i2) {
-                    if (face_key(new_tets[j2], i2) != k) continue;
+                    if (!same_key(face_key(new_tets[j2], i2), k)) continue;
                     nbr_[static_cast<std::size_t>(ids[j])][static_cast<std::size_t>(i)] = ids[j2];
                     done = true;
                     break;

@@ -64,6 +64,9 @@ public:
     /// A new interior node at p (a Steiner node), unused until replace() puts it in tets;
     /// `level` is its front level when the mesh records levels.
     std::int32_t add_node(const Eigen::Vector3d& p, std::int32_t level);
+    /// Edit counter: incremented by every set_point(), add_node() and replace(), so that a
+    /// cache of per-tet measures can tell whether someone else edited the mesh.
+    std::uint64_t stamp() const { return stamp_; }
     /// Nodes [0, surface_vertices) are fixed (input surface).
     bool is_surface_node(std::int32_t v) const { return v < mesh_.surface_vertices; }
     /// One alive tet containing v, -1 when v is removed or unused.
@@ -74,6 +77,8 @@ public:
     /// Returns true when the star is closed (no wall face contains v): v is strictly interior
     /// to one region.
     bool star(std::int32_t v, std::vector<std::int32_t>& tets) const;
+    /// As star(), but stops and returns false as soon as more than `limit` tets are found.
+    bool star(std::int32_t v, std::vector<std::int32_t>& tets, std::size_t limit) const;
 
     /// The ring of tets around edge (a, b), starting at tet t (which must contain a and b):
     /// `tets[k]` contains a, b, ring[k], ring[k+1 mod n]. Oriented so that
@@ -114,6 +119,7 @@ private:
     std::vector<std::uint8_t> alive_;
     std::vector<std::int32_t> node_tet_;
     std::vector<std::int32_t> free_;
+    std::uint64_t stamp_ = 0;
     std::vector<std::array<std::int32_t, 3>> poor_faces_;  ///< sorted node triples
     std::size_t alive_count_ = 0;
     mutable std::vector<std::uint32_t> mark_;  ///< star walk marks (not thread-safe)

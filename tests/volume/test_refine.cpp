@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cstdlib>
 #include <fstream>
+#include <numeric>
 #include <random>
 
 #include <catch2/catch.hpp>
@@ -423,4 +424,119 @@ TEST_CASE("Refine parameters are validated by key", "[refine]") {
         CHECK(std::string(e.what()).find("refine.flip_skewness") != std::string::npos);
     }
     CHECK_NOTHROW(volume::validate(RefineParams{}));
+}
+
+TEST_CASE("The shape cache follows every edit, its own and others'", "[refine]") {
+    const std::string dir = fixtures::temp_dir("refine_cache");
+    const core::TetMesh input =
+        refine_fixtures::tetgen_mesh(fixtures::uv_sphere(10.0, 12), dir, "pYQ");
+    TetTopology topo(input);
+    RefineOps ops(topo, RefineParams{});
+    auto fresh = [&](std::int32_t t) {
+        const Tet& q = topo.tet(t);
+        return volume::tet_shape(topo.xyz(q[0]), topo.xyz(q[1]), topo.xyz(q[2]), topo.xyz(q[3]),
+                                 true);
+    };
+    auto all_cached_exact = [&]() {
+        std::size_t wrong = 0;
+        for (std::int32_t t = 0; t < topo.tet_capacity(); ++t) {
+            if (!topo.alive(t)) continue;
+            // Skewness alone first: asking for the dihedral angle may measure the tet again.
+            const volume::TetShape f = fresh(t);
+            if (ops.shape(t, false).skewness != f.skewness) ++wrong;
+            const volume::TetShape s = ops.shape(t, true);
+            if (s.skewness != f.skewness || s.min_dihedral_deg != f.min_dihedral_deg) ++wrong;
+        }
+        return wrong;
+    };
+    REQUIRE(!ops.bad_tets(Objective::Combined, 0.0).empty());  // fills the cache
+    ops.remove_nodes();
+    ops.smooth();
+    ops.flips();
+    const std::size_t moves = ops.counts.smoothing_moves;
+    ops.smooth();  // moves after the last candidate list: the next one must see them
+    CHECK(moves > 0);
+    CHECK(ops.counts.smoothing_moves > moves);
+    CHECK(ops.counts.flips_2_3 + ops.counts.flips_3_2 + ops.counts.flips_4_4 +
+              ops.counts.flips_n_m >
+          0);
+    CHECK(all_cached_exact() == 0);
+    // The flip candidates (kept up to date between calls) equal a full scan, worst first.
+    {
+        std::vector<std::pair<double, std::int32_t>> scan;
+        for (std::int32_t t = 0; t < topo.tet_capacity(); ++t)
+            if (topo.alive(t) && fresh(t).skewness > 0.3) scan.emplace_back(fresh(t).skewness, t);
+        std::sort(scan.begin(), scan.end(), [](const auto& x, const auto& y) {
+            return x.first != y.first ? x.first > y.first : x.second < y.second;
+        });
+        std::vector<std::int32_t> expected;
+        for (const auto& [c, t] : scan) expected.push_back(t);
+        CHECK(ops.bad_tets(Objective::Skewness, 0.3) == expected);
+    }
+    ops.slivers();
+    CHECK(all_cached_exact() == 0);
+    CHECK(topo.check());
+    // A node moved behind the cache's back: its star's shapes are measured again.
+    std::vector<std::int32_t> star;
+    std::int32_t v = topo.mesh().surface_vertices;
+    while (v < topo.node_capacity() && !topo.star(v, star)) ++v;
+    REQUIRE(v < topo.node_capacity());
+    const std::vector<std::int32_t> moved_star = star;
+    for (const std::int32_t t : moved_star) (void)ops.shape(t, true);
+    topo.set_point(v, topo.point(v) + Eigen::Vector3d(0.05, -0.03, 0.02));
+    for (const std::int32_t t : moved_star)
+        CHECK(ops.shape(t, false).skewness == fresh(t).skewness);
+    CHECK(all_cached_exact() == 0);
+}
+
+TEST_CASE("A star walk with a limit stops early and agrees otherwise", "[refine]") {
+    const std::string dir = fixtures::temp_dir("refine_star_limit");
+    const core::TetMesh input =
+        refine_fixtures::tetgen_mesh(fixtures::uv_sphere(10.0, 12), dir, "pYq1.3Q");
+    TetTopology topo(input);
+    std::vector<std::int32_t> full, limited;
+    std::size_t compared = 0, stopped = 0;
+    for (std::int32_t v = 0; v < topo.node_capacity(); ++v) {
+        const bool closed = topo.star(v, full);
+        for (const std::size_t limit : {std::size_t{4}, std::size_t{12}, full.size()}) {
+            const bool ok = topo.star(v, limited, limit);
+            if (full.size() > limit) {
+                CHECK_FALSE(ok);
+                ++stopped;
+            } else {
+                CHECK(ok == closed);
+                CHECK(limited == full);
+                ++compared;
+            }
+        }
+    }
+    CHECK(compared > 0);
+    CHECK(stopped > 0);
+}
+
+TEST_CASE("Refine output does not depend on the input's tet order", "[refine]") {
+    // refine() reorders the tets by their smallest node first: any input order gives the same mesh.
+    const std::string dir = fixtures::temp_dir("refine_tet_order");
+    const core::TetMesh input =
+        refine_fixtures::tetgen_mesh(fixtures::uv_sphere(10.0, 12), dir, "pYq1.3Q");
+    // The counting sort is stable within one smallest node: permute whole groups (descending
+    // smallest node), keeping the input order inside a group.
+    std::vector<std::size_t> order(input.tets.size());
+    std::iota(order.begin(), order.end(), std::size_t{0});
+    auto smallest = [&](std::size_t t) {
+        return *std::min_element(input.tets[t].begin(), input.tets[t].end());
+    };
+    std::stable_sort(order.begin(), order.end(),
+                     [&](std::size_t a, std::size_t b) { return smallest(a) > smallest(b); });
+    core::TetMesh shuffled = input;
+    for (std::size_t k = 0; k < order.size(); ++k) {
+        shuffled.tets[k] = input.tets[order[k]];
+        shuffled.region[k] = input.region[order[k]];
+    }
+    core::StageContext ctx1, ctx2;
+    const core::TetMesh a = volume::refine(input, RefineParams{}, ctx1);
+    const core::TetMesh b = volume::refine(shuffled, RefineParams{}, ctx2);
+    CHECK(a.tets == b.tets);
+    CHECK(a.xyz == b.xyz);
+    CHECK(volume::check_tet_mesh(a).valid());
 }
