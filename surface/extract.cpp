@@ -677,6 +677,15 @@ std::string label_list(const std::set<Label>& labels) {
     return s.str();
 }
 
+// The non-zero labels of a label array.
+std::set<Label> labels_present(const std::vector<Label>& labels) {
+    std::set<Label> s;
+    Label last = 0;
+    for (Label l : labels)
+        if (l != 0 && l != last) s.insert(last = l);
+    return s;
+}
+
 }  // namespace
 
 void validate(const ExtractParams& params) {
@@ -696,13 +705,7 @@ core::SurfaceNetwork extract(const core::LabelImage& image, const ExtractParams&
                              core::StageContext& ctx) {
     validate(params);
     FM_CHECK(image.labels.size() == image.voxel_count());
-    const std::set<Label> present = [&] {
-        std::set<Label> s;
-        Label last = 0;
-        for (Label l : image.labels)
-            if (l != 0 && l != last) s.insert(last = l);
-        return s;
-    }();
+    const std::set<Label> present = labels_present(image.labels);
     if (present.empty())
         FM_THROW(InputError, "input.image: '" + image.source +
                                  "' has no labelled (non-zero) voxel; for a grayscale image set input.threshold");
@@ -729,10 +732,7 @@ core::SurfaceNetwork extract(const core::LabelImage& image, const ExtractParams&
     if (method == ExtractMethod::SurfaceNets && params.blur_sigma_mm > 0.0) {
         const std::size_t changed = smooth_labels(image, labels, params.blur_sigma_mm);
         ctx.count("extract.voxels_relabelled_by_blur", static_cast<double>(changed));
-        std::set<Label> left;
-        Label last = -1;
-        for (Label l : labels)
-            if (l != 0 && l != last) left.insert(last = l);
+        const std::set<Label> left = labels_present(labels);
         std::string lost;
         for (Label l : chosen)
             if (!left.count(l)) lost += " " + std::to_string(l);

@@ -58,6 +58,14 @@ struct DiscreteCurve {
     std::vector<std::int32_t> bg_vertex;  // the background vertex at each point, or -1
 };
 
+// A background face next to segment (cv[i], cv[i + 1]) of a curve polyline, for size queries.
+std::int32_t curve_segment_face(const EdgeTable& edges, const std::vector<std::int32_t>& cv, std::size_t i) {
+    const std::int32_t a = std::min(cv[i], cv[i + 1]), b = std::max(cv[i], cv[i + 1]);
+    const auto it = std::lower_bound(edges.vertices.begin(), edges.vertices.end(), std::array<std::int32_t, 2>{a, b});
+    FM_CHECK(it != edges.vertices.end() && (*it)[0] == a && (*it)[1] == b);
+    return edges.edge_faces[std::size_t(edges.face_offsets[std::size_t(it - edges.vertices.begin())])];
+}
+
 DiscreteCurve discretise(const core::SurfaceNetwork& bg, const FeatureCurve& curve,
                          const std::function<double(std::int32_t)>& vertex_size,
                          const EdgeTable& edges, int min_segments) {
@@ -73,15 +81,7 @@ DiscreteCurve discretise(const core::SurfaceNetwork& bg, const FeatureCurve& cur
     }
     const double total = integral.back();
     const int segments = std::max(min_segments, static_cast<int>(std::lround(total)));
-    // A background face next to each polyline segment, for size queries.
-    auto segment_face = [&](std::size_t i) {
-        const std::int32_t a = std::min(cv[i], cv[i + 1]), b = std::max(cv[i], cv[i + 1]);
-        const auto it = std::lower_bound(edges.vertices.begin(), edges.vertices.end(),
-                                         std::array<std::int32_t, 2>{a, b});
-        FM_CHECK(it != edges.vertices.end() && (*it)[0] == a && (*it)[1] == b);
-        const auto e = std::size_t(it - edges.vertices.begin());
-        return edges.edge_faces[std::size_t(edges.face_offsets[e])];
-    };
+    auto segment_face = [&](std::size_t i) { return curve_segment_face(edges, cv, i); };
     DiscreteCurve out;
     out.points.push_back(bg.point(cv.front()));
     out.s.push_back(0.0);
@@ -113,13 +113,9 @@ DiscreteCurve discretise_full(const core::SurfaceNetwork& bg, const FeatureCurve
     double arc = 0.0;
     for (std::size_t i = 0; i < cv.size(); ++i) {
         if (i > 0) arc += (bg.point(cv[i]) - bg.point(cv[i - 1])).norm();
-        const std::size_t k = std::min(i, cv.size() - 2);
-        const std::int32_t a = std::min(cv[k], cv[k + 1]), b = std::max(cv[k], cv[k + 1]);
-        const auto it = std::lower_bound(edges.vertices.begin(), edges.vertices.end(), std::array<std::int32_t, 2>{a, b});
-        FM_CHECK(it != edges.vertices.end() && (*it)[0] == a && (*it)[1] == b);
         out.points.push_back(bg.point(cv[i]));
         out.s.push_back(arc);
-        out.faces.push_back(edges.edge_faces[std::size_t(edges.face_offsets[std::size_t(it - edges.vertices.begin())])]);
+        out.faces.push_back(curve_segment_face(edges, cv, std::min(i, cv.size() - 2)));
         out.bg_vertex.push_back(cv[i]);
     }
     return out;
