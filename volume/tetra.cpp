@@ -867,15 +867,32 @@ bool RegionMesher::try_base(std::int32_t f, bool active_only, bool relaxed) {
     V3 centroid = V3::Zero();
     int ncent = 0;
     bool near_ready = false;  // `near` holds every front face (small closing front)
+    // `near` holds every front face whose box meets `fetched`: those a validity test of a
+    // tet (base, q) with q inside `fetched` needs.
+    core::AdtBox fetched;
     // Candidates in the shell rmin < |x - x_ck| <= r (all front nodes above the base for a
-    // small closing front), from the ADT of front nodes.
-    auto collect = [&](double rmin, double r) {
+    // small closing front). With `from_faces` (rmin < 0), the front nodes come from one query
+    // of the ADT of front face boxes over the box of the base and the sphere: every front node
+    // in the sphere is a node of a face found there, and the faces found also serve the
+    // validity tests of every candidate inside that box, most new points of Eq. 10 too (one
+    // outside fetches its own). Otherwise they come from the ADT of front nodes.
+    auto collect = [&](double rmin, double r, bool from_faces) {
         cands.clear();
         if (small_front) {
             near.clear();
             for (std::int32_t g = 0; g < static_cast<std::int32_t>(fv_.size()); ++g)
                 if (falive_[g]) near.push_back(g);
             near_ready = true;
+        } else if (from_faces) {
+            fetched = base_box;
+            fetched.extend(bk.xc - V3::Constant(r * (1.0 + 1e-9)));
+            fetched.extend(bk.xc + V3::Constant(r * (1.0 + 1e-9)));
+            gather_faces(fetched, near);
+        } else {
+            // a hair wider than r: the test below decides
+            adt_.query_sphere(bk.xc, r * (1.0 + 1e-9), node_ids_);
+        }
+        if (small_front || from_faces) {
             const std::int32_t stamp = next_mark();
             node_ids_.clear();
             for (std::int32_t g : near)
@@ -884,10 +901,6 @@ bool RegionMesher::try_base(std::int32_t f, bool active_only, bool relaxed) {
                         mark_[q] = stamp;
                         node_ids_.push_back(q);
                     }
-        } else {
-            near_ready = false;
-            // a hair wider than r: the test below decides
-            adt_.query_sphere(bk.xc, r * (1.0 + 1e-9), node_ids_);
         }
         for (std::int32_t q : node_ids_) {
             if (q == bk.a[0] || q == bk.a[1] || q == bk.a[2]) continue;
@@ -914,9 +927,7 @@ bool RegionMesher::try_base(std::int32_t f, bool active_only, bool relaxed) {
     };
     // The front faces a validity test of the tet (base, q) needs: those whose box meets the
     // box of the tet, from the ADT of front face boxes. A fetch also serves every later
-    // candidate inside its box (the front does not change before try_base returns), e.g. the
-    // new points of g < 1 after that of g = 1.
-    core::AdtBox fetched;
+    // candidate inside its box (the front does not change before try_base returns).
     auto ensure_near = [&](std::int32_t q) {
         if (near_ready) return;
         const V3 Q = x(q);
@@ -960,7 +971,7 @@ bool RegionMesher::try_base(std::int32_t f, bool active_only, bool relaxed) {
         return true;
     };
     if (relaxed) {
-        collect(-1.0, rrel);
+        collect(-1.0, rrel, false);
         for (const Cand& c : cands)
             if (try_existing(c.id)) return true;
         for (double g : {1.0, 0.7, 0.49, 0.343, 0.25, 0.1})
@@ -972,12 +983,12 @@ bool RegionMesher::try_base(std::int32_t f, bool active_only, bool relaxed) {
         }
         return false;
     }
-    collect(-1.0, r1);  // w = 1
+    collect(-1.0, r1, true);  // w = 1
     for (const Cand& c : cands)
         if (try_existing(c.id)) return true;
     for (double g : kGs)
         if (try_new(bk.xo + g * bk.h * bk.n)) return true;
-    collect(r1, r10);  // w = 2 .. 10
+    collect(r1, r10, false);  // w = 2 .. 10
     for (const Cand& c : cands)
         if (try_existing(c.id)) return true;
     return false;

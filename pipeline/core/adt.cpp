@@ -13,11 +13,13 @@ namespace {
 
 constexpr double infinity = std::numeric_limits<double>::infinity();
 
+// Key dimension: an item's key is the low corner of its box (the point itself for points).
+constexpr int K = 3;
+
 // A node's region of key space, with the node, as insertion walks it (queries prune with the
 // nodes' stored subtree bounds instead). Keys are clamped to the domain only to choose a
 // branch, so a side of the region still on the domain boundary is stored as -inf / +inf; the
 // split value is rebuilt from the domain.
-template <int K>
 struct Frame {
     std::int32_t node;
     std::uint32_t k;  // key coordinate the node splits, 0 .. K - 1
@@ -25,12 +27,8 @@ struct Frame {
     double hi[K];
 };
 
-// Axis (0..2) of key coordinate k: keys 0..2 are the box minima, keys 3..5 the maxima.
-constexpr int axis_of(int k) { return k < 3 ? k : k - 3; }
-
-template <int K>
-Frame<K> root_frame(std::int32_t root) {
-    Frame<K> f;
+Frame root_frame(std::int32_t root) {
+    Frame f;
     f.node = root;
     f.k = 0;
     for (int k = 0; k < K; ++k) {
@@ -42,9 +40,8 @@ Frame<K> root_frame(std::int32_t root) {
 
 // Bisection value of the node's region in coordinate f.k. 0.5 lo + 0.5 hi cannot overflow
 // and lies in [lo, hi].
-template <int K>
-double split_value(const Frame<K>& f, const AdtBox& domain) {
-    const int a = axis_of(f.k);
+double split_value(const Frame& f, const AdtBox& domain) {
+    const int a = static_cast<int>(f.k);
     const double lo = std::max(f.lo[f.k], domain.lo[a]);
     const double hi = std::min(f.hi[f.k], domain.hi[a]);
     return 0.5 * lo + 0.5 * hi;
@@ -53,9 +50,8 @@ double split_value(const Frame<K>& f, const AdtBox& domain) {
 // Turns frame `f` of a node into the frame of its child on `side` (0: clamped key < split,
 // 1: clamped key >= split). A split on the domain boundary (zero extent or exhausted
 // precision) bounds nothing.
-template <int K>
-void descend(Frame<K>& f, int side, double split, std::int32_t child, const AdtBox& domain) {
-    const int a = axis_of(f.k);
+void descend(Frame& f, int side, double split, std::int32_t child, const AdtBox& domain) {
+    const int a = static_cast<int>(f.k);
     if (side == 0)
         f.hi[f.k] = split < domain.hi[a] ? split : infinity;
     else
@@ -140,7 +136,7 @@ bool has_nan(const Eigen::Vector3d& v) { return v.array().isNaN().any(); }
 }  // namespace
 
 Adt::Adt(const AdtBox& domain, AdtItems items)
-    : domain_(domain), key_dim_(items == AdtItems::points ? 3 : 6) {
+    : domain_(domain), items_(items) {
     static_assert(sizeof(Node) == 88, "the node size is documented in adt.h");
     if (!domain.is_valid())
         FM_THROW(InputError, "ADT: root domain must be finite with lo <= hi on every axis");
@@ -169,7 +165,7 @@ void Adt::insert(std::int32_t id, const AdtBox& box) {
     if (!box.is_valid())
         FM_THROW(InputError, "ADT: box of item " + std::to_string(id) +
                                  " is not finite or has lo > hi on some axis");
-    FM_CHECK(key_dim_ == 6 || box.lo == box.hi);
+    FM_CHECK(items_ == AdtItems::boxes || box.lo == box.hi);
 
     const std::int32_t node = allocate_node();
     Node& n = nodes_[static_cast<std::size_t>(node)];
@@ -187,16 +183,12 @@ void Adt::insert(std::int32_t id, const AdtBox& box) {
     node_of_id_[static_cast<std::size_t>(id)] = node;
     ++size_;
 
-    if (key_dim_ == 3)
-        insert_key<3>(node);
-    else
-        insert_key<6>(node);
+    insert_key(node);
 }
 
 // Bonet & Peraire: descend from the root bisecting the region in key coordinate depth mod K
 // and hang the node at the first empty child. Keys outside the domain are clamped onto it.
 // Every node on the way gets its subtree bounds widened to the new item's.
-template <int K>
 void Adt::insert_key(std::int32_t node) {
     if (root_ < 0) {
         root_ = node;
@@ -206,12 +198,9 @@ void Adt::insert_key(std::int32_t node) {
     const float item_lo[3] = {item.bound_lo[0], item.bound_lo[1], item.bound_lo[2]};
     const float item_hi[3] = {item.bound_hi[0], item.bound_hi[1], item.bound_hi[2]};
     double key[K];
-    for (int k = 0; k < K; ++k) {
-        const int a = axis_of(k);
-        key[k] =
-            std::clamp(nodes_[static_cast<std::size_t>(node)].key[k], domain_.lo[a], domain_.hi[a]);
-    }
-    Frame<K> f = root_frame<K>(root_);
+    for (int k = 0; k < K; ++k)
+        key[k] = std::clamp(item.key[k], domain_.lo[k], domain_.hi[k]);
+    Frame f = root_frame(root_);
     while (true) {
         const double split = split_value(f, domain_);
         const int side = key[f.k] < split ? 0 : 1;
