@@ -275,7 +275,7 @@ const std::vector<KeySpec>& key_specs() {
         bool_key("refine.flip_delaunay_test", "true", &Recipe::refine, &volume::RefineParams::flip_delaunay_test),
         integer_key("refine.flip_sweeps", "4", &Recipe::refine, &volume::RefineParams::flip_sweeps, 1, 20),
         bool_key("refine.sliver_pass", "true", &Recipe::refine, &volume::RefineParams::sliver_pass),
-        number_key("refine.sliver_dihedral_deg", "15.0", &Recipe::refine, &volume::RefineParams::sliver_dihedral_deg,
+        number_key("refine.sliver_dihedral_deg", "20.0", &Recipe::refine, &volume::RefineParams::sliver_dihedral_deg,
                    0.0, 70.5, true),
         integer_key("refine.sliver_sweeps", "3", &Recipe::refine, &volume::RefineParams::sliver_sweeps, 1, 20),
     };

@@ -41,7 +41,7 @@ struct RefineParams {
     bool sliver_pass = true;
     /// Tets whose smallest dihedral angle is below this are targeted by the sliver pass, degrees.
     /// Range (0, 70.5].
-    double sliver_dihedral_deg = 15.0;
+    double sliver_dihedral_deg = 20.0;
     /// Sweeps of the sliver pass. Range [1, 20].
     int sliver_sweeps = 3;
 };
