@@ -261,10 +261,10 @@ private:
         if (top_bucket_ >= kBuckets - 1) return std::numeric_limits<double>::infinity();
         return std::exp2((top_bucket_ + 1 - kBuckets / 2) / 4.0) * 1.0001;
     }
-    /// Every front face whose box meets `box` (a superset of the faces touching it), in
-    /// increasing face id order, from the ADT of front face boxes.
+    /// Every front face whose box meets `box` (a superset of the faces touching it), from the
+    /// ADT of front face boxes, in the tree's order: every user decides on the whole set.
     void gather_faces(const core::AdtBox& box, std::vector<std::int32_t>& out) const {
-        face_adt_.query_box(box, out);
+        face_adt_.query_box_unordered(box, out);
     }
     /// False when the box of triangle t misses the box [lo, hi] (exact comparisons).
     bool box_meets_face(const double* lo, const double* hi, const Tri& t) const {

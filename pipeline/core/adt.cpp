@@ -341,12 +341,16 @@ void Adt::collect_box(const AdtBox& query, std::vector<std::int32_t>& out_ids) c
 }
 
 void Adt::query_box(const AdtBox& query, std::vector<std::int32_t>& out_ids) const {
+    query_box_unordered(query, out_ids);
+    std::sort(out_ids.begin(), out_ids.end());
+}
+
+void Adt::query_box_unordered(const AdtBox& query, std::vector<std::int32_t>& out_ids) const {
     out_ids.clear();
     if (has_nan(query.lo) || has_nan(query.hi))
         FM_THROW(InputError, "ADT: query box has a NaN coordinate");
     if ((query.lo.array() > query.hi.array()).any()) return;
     collect_box(query, out_ids);
-    std::sort(out_ids.begin(), out_ids.end());
 }
 
 void Adt::collect_sphere(const Eigen::Vector3d& center, double radius2,

@@ -351,6 +351,10 @@ void check_queries_at(const Adt& adt, const Reference& ref, const std::vector<st
         for (const AdtBox& q : {AdtBox{b.lo, b.lo}, AdtBox{b.hi, b.hi}, b}) {
             adt.query_box(q, got);
             REQUIRE(got == brute_box(ref, q));
+            // the unordered query finds the same ids, each once
+            adt.query_box_unordered(q, got);
+            std::sort(got.begin(), got.end());
+            REQUIRE(got == brute_box(ref, q));
         }
         const double r = 0.5 * (b.hi - b.lo).norm();
         adt.query_sphere(b.hi, 0.0, got);
