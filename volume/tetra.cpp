@@ -264,7 +264,7 @@ private:
     /// Every front face whose box meets `box` (a superset of the faces touching it), from the
     /// ADT of front face boxes, in the tree's order: every user decides on the whole set.
     void gather_faces(const core::AdtBox& box, std::vector<std::int32_t>& out) const {
-        face_adt_.query_box_unordered(box, out);
+        face_adt_.query_box(box, out, core::AdtOrder::walk);
     }
     /// False when the box of triangle t misses the box [lo, hi] (exact comparisons).
     bool box_meets_face(const double* lo, const double* hi, const Tri& t) const {

@@ -340,17 +340,13 @@ void Adt::collect_box(const AdtBox& query, std::vector<std::int32_t>& out_ids) c
     bounded_walk(nodes_, root_, meets, visit);
 }
 
-void Adt::query_box(const AdtBox& query, std::vector<std::int32_t>& out_ids) const {
-    query_box_unordered(query, out_ids);
-    std::sort(out_ids.begin(), out_ids.end());
-}
-
-void Adt::query_box_unordered(const AdtBox& query, std::vector<std::int32_t>& out_ids) const {
+void Adt::query_box(const AdtBox& query, std::vector<std::int32_t>& out_ids, AdtOrder order) const {
     out_ids.clear();
     if (has_nan(query.lo) || has_nan(query.hi))
         FM_THROW(InputError, "ADT: query box has a NaN coordinate");
     if ((query.lo.array() > query.hi.array()).any()) return;
     collect_box(query, out_ids);
+    if (order == AdtOrder::by_id) std::sort(out_ids.begin(), out_ids.end());
 }
 
 void Adt::collect_sphere(const Eigen::Vector3d& center, double radius2,
@@ -363,13 +359,13 @@ void Adt::collect_sphere(const Eigen::Vector3d& center, double radius2,
 }
 
 void Adt::query_sphere(const Eigen::Vector3d& center, double radius,
-                       std::vector<std::int32_t>& out_ids) const {
+                       std::vector<std::int32_t>& out_ids, AdtOrder order) const {
     out_ids.clear();
     if (!center.allFinite() || std::isnan(radius))
         FM_THROW(InputError, "ADT: sphere query has a non-finite centre or a NaN radius");
     if (radius < 0.0) return;
     collect_sphere(center, radius * radius, out_ids);
-    std::sort(out_ids.begin(), out_ids.end());
+    if (order == AdtOrder::by_id) std::sort(out_ids.begin(), out_ids.end());
 }
 
 namespace {

@@ -71,6 +71,11 @@ inline double squared_distance(const AdtBox& box, const Eigen::Vector3d& p) {
 /// What an Adt stores: points, or boxes (a point tree checks that every box is a point).
 enum class AdtItems { points, boxes };
 
+/// Order of query results: increasing id, or the order of the tree walk, which depends only
+/// on the sequence of insertions and removals (deterministic) and saves the sort, for callers
+/// to whom the order does not matter (about 4% of the tetra stage).
+enum class AdtOrder { by_id, walk };
+
 /// An item found by a nearest-item query.
 struct AdtNeighbor {
     std::int32_t id = -1;                                        ///< -1 when the tree is empty
@@ -151,20 +156,17 @@ public:
 
     /// Ids of the items whose box intersects the closed box `query`, in increasing id order
     /// (written to `out_ids`, which is cleared first). Empty when query.lo > query.hi on some
-    /// axis; throws InputError on NaN coordinates.
-    void query_box(const AdtBox& query, std::vector<std::int32_t>& out_ids) const;
-
-    /// query_box without the final sort: the same ids in the order of the tree walk, which
-    /// depends only on the sequence of insertions and removals (deterministic). For callers
-    /// to whom the order does not matter; saves the sort (about 4% of the tetra stage).
-    void query_box_unordered(const AdtBox& query, std::vector<std::int32_t>& out_ids) const;
+    /// axis; throws InputError on NaN coordinates. With AdtOrder::walk the same ids come in the
+    /// order of the tree walk, unsorted.
+    void query_box(const AdtBox& query, std::vector<std::int32_t>& out_ids,
+                   AdtOrder order = AdtOrder::by_id) const;
 
     /// Ids of the items whose box intersects the closed ball (`center`, `radius` mm), i.e.
     /// squared_distance(box, center) <= radius * radius, in increasing id order (written to
     /// `out_ids`, cleared first). Empty for a negative radius; an infinite radius returns all
-    /// items. Throws InputError on NaN input.
+    /// items. Throws InputError on NaN input. AdtOrder::walk as for query_box.
     void query_sphere(const Eigen::Vector3d& center, double radius,
-                      std::vector<std::int32_t>& out_ids) const;
+                      std::vector<std::int32_t>& out_ids, AdtOrder order = AdtOrder::by_id) const;
 
     /// The item closest to `p` by squared_distance (0 for boxes containing `p`), ties broken by
     /// the smaller id; id -1 when the tree is empty. Throws InputError when `p` is not finite.

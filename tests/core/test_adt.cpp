@@ -351,8 +351,8 @@ void check_queries_at(const Adt& adt, const Reference& ref, const std::vector<st
         for (const AdtBox& q : {AdtBox{b.lo, b.lo}, AdtBox{b.hi, b.hi}, b}) {
             adt.query_box(q, got);
             REQUIRE(got == brute_box(ref, q));
-            // the unordered query finds the same ids, each once
-            adt.query_box_unordered(q, got);
+            // in walk order: the same ids, each once
+            adt.query_box(q, got, AdtOrder::walk);
             std::sort(got.begin(), got.end());
             REQUIRE(got == brute_box(ref, q));
         }
@@ -360,6 +360,9 @@ void check_queries_at(const Adt& adt, const Reference& ref, const std::vector<st
         adt.query_sphere(b.hi, 0.0, got);
         REQUIRE(got == brute_sphere(ref, b.hi, 0.0));
         adt.query_sphere(0.5 * (b.lo + b.hi), r, got);
+        REQUIRE(got == brute_sphere(ref, 0.5 * (b.lo + b.hi), r));
+        adt.query_sphere(0.5 * (b.lo + b.hi), r, got, AdtOrder::walk);
+        std::sort(got.begin(), got.end());
         REQUIRE(got == brute_sphere(ref, 0.5 * (b.lo + b.hi), r));
     }
 }
