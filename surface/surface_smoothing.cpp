@@ -4,6 +4,7 @@
 #include <cmath>
 #include <numbers>
 #include <string>
+#include <unordered_map>
 #include <unordered_set>
 
 #include "pipeline/core/error.h"
@@ -39,6 +40,58 @@ struct Polyline {
 
 Eigen::Vector3d raw_normal(const core::SurfaceNetwork& s, const std::array<std::int32_t, 3>& t) {
     return (s.point(t[1]) - s.point(t[0])).cross(s.point(t[2]) - s.point(t[0]));
+}
+
+// Interior dihedral angle (degrees, in (0, 360)) of `region` at edge (a, b) between its faces
+// f and g, each seen from the region (normal out of region_in: reversed when the region is
+// f's region_out): the region's wedge there.
+double region_wedge_deg(const core::SurfaceNetwork& s, core::Label region, std::int32_t a,
+                        std::int32_t b, std::int32_t f, std::int32_t g) {
+    const auto& tf = s.faces[std::size_t(f)];
+    const auto& tg = s.faces[std::size_t(g)];
+    bool a_to_b = false;  // f holds a -> b as stored
+    for (int i = 0; i < 3; ++i)
+        if (tf[std::size_t(i)] == a && tf[std::size_t((i + 1) % 3)] == b) a_to_b = true;
+    if (s.region_in[std::size_t(f)] != region) a_to_b = !a_to_b;
+    const std::int32_t from = a_to_b ? a : b, to = a_to_b ? b : a;
+    const auto third = [a, b](const std::array<std::int32_t, 3>& t) {
+        for (const auto x : t)
+            if (x != a && x != b) return x;
+        return t[0];
+    };
+    const Eigen::Vector3d A = s.point(from), B = s.point(to);
+    const Eigen::Vector3d c1 = s.point(third(tf)) - A, c2 = s.point(third(tg)) - A;
+    const Eigen::Vector3d e = (B - A).normalized();
+    const Eigen::Vector3d p1 = c1 - c1.dot(e) * e, p2 = c2 - c2.dot(e) * e;
+    const double theta = std::atan2(p1.cross(p2).norm(), p1.dot(p2)) * 180.0 / std::numbers::pi;
+    const bool convex = (B - A).cross(c1).dot(c2) < 0.0;  // c2 behind f, seen from the region
+    return convex ? theta : 360.0 - theta;
+}
+
+// Smallest wedge of any region with exactly two of `faces` (the faces on edge (a, b)).
+template <class Faces>
+double smallest_edge_wedge(const core::SurfaceNetwork& s, std::int32_t a, std::int32_t b,
+                           const Faces& faces) {
+    double smallest = 360.0;
+    const std::size_t n = faces.size();
+    for (std::size_t i = 0; i < n; ++i)
+        for (const core::Label r :
+             {s.region_in[std::size_t(faces[i])], s.region_out[std::size_t(faces[i])]}) {
+            if (r == 0) continue;
+            std::int32_t other = -1;
+            int uses = 0;
+            bool seen_before = false;
+            for (std::size_t j = 0; j < n; ++j) {
+                const auto fj = std::size_t(faces[j]);
+                if (s.region_in[fj] != r && s.region_out[fj] != r) continue;
+                ++uses;
+                if (j < i) seen_before = true;
+                if (j != i) other = faces[j];
+            }
+            if (uses != 2 || seen_before) continue;  // each region once
+            smallest = std::min(smallest, region_wedge_deg(s, r, a, b, faces[i], other));
+        }
+    return smallest;
 }
 
 double global_min_angle(const core::SurfaceNetwork& s) {
@@ -87,6 +140,9 @@ public:
         cos_turn_ = std::cos(p.max_normal_turn_deg * std::numbers::pi / 180.0);
         cos_flat_ = std::cos(p.flip_max_dihedral_deg * std::numbers::pi / 180.0);
         build_incidence();
+        guard_deg_ = std::min(p.wedge_target_deg, 20.0);
+        jmask_.assign(s.face_count(), 0);
+        if (guard_deg_ > 0.0) build_junctions();
         // A free vertex whose faces lie on several patches has no single surface to move on.
         for (std::size_t v = 0; v < n; ++v) {
             if (kind_[v] != Kind::Free) continue;
@@ -144,6 +200,7 @@ public:
             mean_edge /= double(std::max<std::size_t>(ring.size(), 1));
             star_normals(v, normals_);
             const double before = star_quality(v, nullptr);
+            const double wedge_before = star_wedge(v);
             double best = before;
             Eigen::Vector3d best_point = P;
             std::int32_t best_face = -1;
@@ -157,7 +214,8 @@ public:
                         const auto proj = hint >= 0 ? patch.project(goal, hint) : patch.project(goal);
                         s_.point(v) = proj.point;
                         const double q = star_quality(v, &normals_);
-                        if (q > best + 1e-9) best = q, best_point = proj.point, best_face = proj.face;
+                        if (q > best + 1e-9 && wedge_kept(wedge_before, star_wedge(v)))
+                            best = q, best_point = proj.point, best_face = proj.face;
                     }
             }
             s_.point(v) = best_point;
@@ -226,8 +284,7 @@ public:
             if (u1.dot(u2) < cos_flat || u1.dot(mean) <= 0.0 || u2.dot(mean) <= 0.0) continue;
             const double after = std::min(min_angle(nf), min_angle(ng));
             if (!(after > before + 1e-6)) continue;
-            s_.faces[std::size_t(f)] = nf;
-            s_.faces[std::size_t(g)] = ng;
+            if (!flip_faces(f, g, nf, ng, true)) continue;
             edges.erase(key(a, b));
             edges.insert(key(c, d));
             --valence[std::size_t(a)];
@@ -241,7 +298,299 @@ public:
         return flips;
     }
 
+    // Raises the region wedges under `target_deg` at junction edges (edges of three or more
+    // faces, where patches meet): the interior dihedral angle of a region between its two
+    // faces there, which bounds every dihedral angle of a tetrahedron of that region on the
+    // edge. The chords of a coarse patch next to a corner of the curve network can close a
+    // wedge of 30 degrees on the background to under 10. Per thin edge, in edge order: each
+    // free vertex of its faces tries steps along its patch (as in worst_pass), each curve
+    // vertex steps along its curve, then the inner edges of its faces are flipped (within a
+    // bend of 30 degrees); a change is kept when it raises the smallest wedge of the faces it
+    // changes (capped at the target, then the thin edge's own) and no face folds or drops
+    // under min(its angle before, kWedgeMinAngleDeg). Returns moves + flips.
+    std::size_t wedge_pass(double target_deg) {
+        std::size_t changes = 0;
+        std::vector<std::int32_t> verts;
+        for (const std::int64_t k : junction_keys_) {
+            if (edge_wedge(k) >= target_deg) continue;
+            verts.clear();
+            for (const std::int32_t f : junction_.at(k))
+                for (const auto x : s_.faces[std::size_t(f)]) verts.push_back(x);
+            std::sort(verts.begin(), verts.end());
+            verts.erase(std::unique(verts.begin(), verts.end()), verts.end());
+            for (const std::int32_t v : verts) {
+                if (edge_wedge(k) >= target_deg) break;
+                if (kind_[std::size_t(v)] == Kind::Free)
+                    changes += raise_wedge_free(v, k, target_deg);
+                else if (kind_[std::size_t(v)] == Kind::Curve)
+                    changes += raise_wedge_curve(v, k, target_deg);
+            }
+            if (edge_wedge(k) < target_deg) changes += raise_wedge_flip(k, target_deg);
+        }
+        return changes;
+    }
+
+    /// The smallest region wedge over all junction edges (degrees; 360 when there is none).
+    double min_wedge() const {
+        double smallest = 360.0;
+        for (const std::int64_t k : junction_keys_) smallest = std::min(smallest, edge_wedge(k));
+        return smallest;
+    }
+
 private:
+    // --- Region wedges at junction edges -------------------------------------------------
+
+    std::int64_t edge_key(std::int32_t a, std::int32_t b) const {
+        return std::int64_t(std::min(a, b)) * std::int64_t(s_.vertex_count()) + std::max(a, b);
+    }
+
+    void build_junctions() {
+        const EdgeTable et = edge_table(s_);
+        junction_.clear();
+        junction_keys_.clear();
+        for (std::size_t e = 0; e < et.edge_count(); ++e) {
+            if (et.face_count(static_cast<std::int32_t>(e)) < 3) continue;
+            const std::int64_t k = edge_key(et.vertices[e][0], et.vertices[e][1]);
+            junction_keys_.push_back(k);
+            junction_[k];  // faces linked below
+        }
+        std::sort(junction_keys_.begin(), junction_keys_.end());
+        jmask_.assign(s_.face_count(), 0);
+        for (std::size_t f = 0; f < s_.face_count(); ++f) link(static_cast<std::int32_t>(f));
+    }
+
+    // Records face f on its junction edges (after its vertices changed) / removes it.
+    void link(std::int32_t f) {
+        const auto& t = s_.faces[std::size_t(f)];
+        for (int i = 0; i < 3; ++i) {
+            const auto it =
+                junction_.find(edge_key(t[std::size_t(i)], t[std::size_t((i + 1) % 3)]));
+            if (it == junction_.end()) continue;
+            it->second.push_back(f);
+            jmask_[std::size_t(f)] |= std::uint8_t(1u << i);
+        }
+    }
+    void unlink(std::int32_t f) {
+        const auto& t = s_.faces[std::size_t(f)];
+        for (int i = 0; i < 3; ++i) {
+            if (!(jmask_[std::size_t(f)] & (1u << i))) continue;
+            auto& list = junction_.at(edge_key(t[std::size_t(i)], t[std::size_t((i + 1) % 3)]));
+            list.erase(std::find(list.begin(), list.end(), f));
+        }
+        jmask_[std::size_t(f)] = 0;
+    }
+
+    // Smallest region wedge at junction edge k: every region with exactly two faces there.
+    double edge_wedge(std::int64_t k) const {
+        const std::int64_t n = std::int64_t(s_.vertex_count());
+        return smallest_edge_wedge(s_, static_cast<std::int32_t>(k / n),
+                                   static_cast<std::int32_t>(k % n), junction_.at(k));
+    }
+
+    double face_wedge(std::int32_t f, double smallest) const {
+        const auto m = jmask_[std::size_t(f)];
+        if (!m) return smallest;
+        const auto& t = s_.faces[std::size_t(f)];
+        for (int i = 0; i < 3; ++i)
+            if (m & (1u << i))
+                smallest = std::min(
+                    smallest, edge_wedge(edge_key(t[std::size_t(i)], t[std::size_t((i + 1) % 3)])));
+        return smallest;
+    }
+
+    // Smallest region wedge at the junction edges of the faces around v (360: none).
+    double star_wedge(std::int32_t v) const {
+        double smallest = 360.0;
+        for (auto k = offsets_[std::size_t(v)]; k < offsets_[std::size_t(v) + 1]; ++k)
+            smallest = face_wedge(incident_[std::size_t(k)], smallest);
+        return smallest;
+    }
+
+    // A change may lower the smallest wedge it touches only while that stays >= the guard.
+    bool wedge_kept(double before, double after) const {
+        return after >= std::min(before, guard_deg_) - 1e-9;
+    }
+
+    // Lexicographic score of a wedge change: the touched minimum capped at the target, then
+    // the thin edge's own wedge.
+    static bool wedge_better(double touched, double own, double best_touched, double best_own,
+                             double target) {
+        touched = std::min(touched, target);
+        best_touched = std::min(best_touched, target);
+        if (touched > best_touched + 1e-6) return true;
+        return touched > best_touched - 1e-9 && own > best_own + 1e-6;
+    }
+
+    std::size_t raise_wedge_free(std::int32_t v, std::int64_t k, double target) {
+        const auto b = offsets_[std::size_t(v)], e = offsets_[std::size_t(v) + 1];
+        if (b == e) return 0;
+        std::vector<std::int32_t> ring;
+        for (auto i = b; i < e; ++i)
+            for (const auto x : s_.faces[std::size_t(incident_[std::size_t(i)])])
+                if (x != v) ring.push_back(x);
+        std::sort(ring.begin(), ring.end());
+        ring.erase(std::unique(ring.begin(), ring.end()), ring.end());
+        const Eigen::Vector3d P = s_.point(v);
+        double mean_edge = 0.0;
+        for (const auto x : ring) mean_edge += (s_.point(x) - P).norm();
+        mean_edge /= double(ring.size());
+        star_normals(v, normals_);
+        const double floor = std::min(star_quality(v, nullptr), kWedgeMinAngleDeg);
+        double best_touched = star_wedge(v), best_own = edge_wedge(k);
+        Eigen::Vector3d best_point = P;
+        std::int32_t best_face = -1;
+        const BackgroundPatch& patch =
+            *patches_[std::size_t(c_.face_patch[std::size_t(incident_[std::size_t(b)])])];
+        const auto hint = c_.vertex_face[std::size_t(v)];
+        for (const auto x : ring) {
+            const Eigen::Vector3d dir = (s_.point(x) - P).normalized();
+            for (const double sign : {1.0, -1.0})
+                for (const double step : {0.05, 0.12, 0.2, 0.35, 0.5}) {
+                    const Eigen::Vector3d goal = P + sign * step * mean_edge * dir;
+                    const auto proj = hint >= 0 ? patch.project(goal, hint) : patch.project(goal);
+                    s_.point(v) = proj.point;
+                    const double q = star_quality(v, &normals_);
+                    if (q <= 0.0 || q < floor) continue;
+                    const double touched = star_wedge(v), own = edge_wedge(k);
+                    if (wedge_better(touched, own, best_touched, best_own, target))
+                        best_touched = touched, best_own = own, best_point = proj.point,
+                        best_face = proj.face;
+                }
+        }
+        s_.point(v) = best_point;
+        if (best_face < 0) return 0;
+        c_.vertex_face[std::size_t(v)] = best_face;
+        return 1;
+    }
+
+    std::size_t raise_wedge_curve(std::int32_t v, std::int64_t k, double target) {
+        const CurveSlot slot = slot_[std::size_t(v)];
+        SurfaceCurve& curve = c_.curves[std::size_t(slot.curve)];
+        const Polyline& pl = polylines_[std::size_t(slot.curve)];
+        const std::size_t i = std::size_t(slot.index);
+        const std::size_t last = curve.vertices.size() - 1;
+        const double length = pl.length();
+        const double s_prev = i == 0 ? curve.s[last - 1] - length : curve.s[i - 1];
+        const double s_next = i == 0 ? curve.s[1] : curve.s[i + 1];
+        const double gap = s_next - s_prev;
+        if (!(gap > 0.0)) return 0;
+        const Eigen::Vector3d P = s_.point(v);
+        star_normals(v, normals_);
+        const double floor = std::min(star_quality(v, nullptr), kWedgeMinAngleDeg);
+        double best_touched = star_wedge(v), best_own = edge_wedge(k);
+        double best_s = curve.s[i];
+        Eigen::Vector3d best_point = P;
+        for (const double sign : {1.0, -1.0})
+            for (const double step : {0.025, 0.06, 0.1, 0.15, 0.25}) {
+                const double s_new = curve.s[i] + sign * step * gap;
+                if (s_new <= s_prev + 0.15 * gap || s_new >= s_next - 0.15 * gap) continue;
+                const double w = length > 0.0 ? s_new - length * std::floor(s_new / length) : 0.0;
+                s_.point(v) = pl.at(w);
+                const double q = star_quality(v, &normals_);
+                if (q <= 0.0 || q < floor) continue;
+                const double touched = star_wedge(v), own = edge_wedge(k);
+                if (wedge_better(touched, own, best_touched, best_own, target))
+                    best_touched = touched, best_own = own, best_s = s_new,
+                    best_point = s_.point(v);
+            }
+        s_.point(v) = best_point;
+        if (best_s == curve.s[i]) return 0;
+        curve.s[i] = best_s;
+        if (i == 0) curve.s[last] = best_s + length;
+        return 1;
+    }
+
+    // Flips an inner edge (two faces of one patch) of a face on junction edge k when that
+    // raises the wedges of the pair. Returns the flips (incidence rebuilt after each).
+    std::size_t raise_wedge_flip(std::int64_t k, double target) {
+        std::size_t flips = 0;
+        const std::vector<std::int32_t> faces = junction_.at(k);
+        for (const std::int32_t f : faces) {
+            for (int i = 0; i < 3; ++i) {
+                if (edge_wedge(k) >= target) return flips;
+                const auto tf = s_.faces[std::size_t(f)];
+                if (jmask_[std::size_t(f)] & (1u << i)) continue;
+                const std::int32_t a = tf[std::size_t(i)], b = tf[std::size_t((i + 1) % 3)],
+                                   c = tf[std::size_t((i + 2) % 3)];
+                std::int32_t g = -1, d = -1;
+                for (auto j = offsets_[std::size_t(a)]; j < offsets_[std::size_t(a) + 1]; ++j) {
+                    const std::int32_t h = incident_[std::size_t(j)];
+                    const auto& th = s_.faces[std::size_t(h)];
+                    for (int m = 0; m < 3; ++m)
+                        if (th[std::size_t(m)] == b && th[std::size_t((m + 1) % 3)] == a)
+                            g = h, d = th[std::size_t((m + 2) % 3)];
+                }
+                if (g < 0 || d == c ||
+                    c_.face_patch[std::size_t(f)] != c_.face_patch[std::size_t(g)])
+                    continue;
+                if (offsets_[std::size_t(a) + 1] - offsets_[std::size_t(a)] <= 3 ||
+                    offsets_[std::size_t(b) + 1] - offsets_[std::size_t(b)] <= 3)
+                    continue;
+                bool exists = false;  // edge c-d already there
+                for (auto j = offsets_[std::size_t(c)]; j < offsets_[std::size_t(c) + 1] && !exists;
+                     ++j)
+                    for (const auto x : s_.faces[std::size_t(incident_[std::size_t(j)])])
+                        exists |= x == d;
+                if (exists) continue;
+                const auto tg = s_.faces[std::size_t(g)];
+                const std::array<std::int32_t, 3> nf{c, a, d}, ng{d, b, c};
+                const Eigen::Vector3d of = raw_normal(s_, tf).normalized(),
+                                      og = raw_normal(s_, tg).normalized();
+                const Eigen::Vector3d n1 = raw_normal(s_, nf), n2 = raw_normal(s_, ng);
+                if (n1.norm() <= 0.0 || n2.norm() <= 0.0) continue;
+                const Eigen::Vector3d u1 = n1.normalized(), u2 = n2.normalized(), mean = of + og;
+                if (of.dot(og) < kCosBadFlat || u1.dot(u2) < kCosBadFlat || u1.dot(mean) <= 0.0 ||
+                    u2.dot(mean) <= 0.0)
+                    continue;
+                const double before_angle = std::min(min_angle(tf), min_angle(tg));
+                if (std::min(min_angle(nf), min_angle(ng)) <
+                    std::min(before_angle, kWedgeMinAngleDeg))
+                    continue;
+                const double touched = face_wedge(g, face_wedge(f, 360.0)), own = edge_wedge(k);
+                flip_faces(f, g, nf, ng, false);
+                const double touched_after = face_wedge(g, face_wedge(f, 360.0)),
+                             own_after = edge_wedge(k);
+                if (wedge_better(touched_after, own_after, touched, own, target)) {
+                    build_incidence();
+                    ++flips;
+                } else {
+                    flip_faces(f, g, tf, tg, false);
+                }
+            }
+        }
+        return flips;
+    }
+
+    // Replaces faces f and g by nf and ng (a flip inside a patch: the pair's outer edges, so
+    // its junction edges, stay; incidence is the caller's). With `guard`, undone (false) when
+    // the smallest wedge at those edges drops and ends under the guard.
+    bool flip_faces(std::int32_t f, std::int32_t g, const std::array<std::int32_t, 3>& nf,
+                    const std::array<std::int32_t, 3>& ng, bool guard) {
+        const auto of = s_.faces[std::size_t(f)], og = s_.faces[std::size_t(g)];
+        const bool junction = (jmask_[std::size_t(f)] | jmask_[std::size_t(g)]) != 0;
+        const double before = junction ? face_wedge(g, face_wedge(f, 360.0)) : 360.0;
+        const auto put = [&](const std::array<std::int32_t, 3>& a,
+                             const std::array<std::int32_t, 3>& b) {
+            unlink(f);
+            unlink(g);
+            s_.faces[std::size_t(f)] = a;
+            s_.faces[std::size_t(g)] = b;
+            link(f);
+            link(g);
+        };
+        if (!junction) {
+            s_.faces[std::size_t(f)] = nf;
+            s_.faces[std::size_t(g)] = ng;
+            return true;
+        }
+        put(nf, ng);
+        if (!guard || wedge_kept(before, face_wedge(g, face_wedge(f, 360.0)))) return true;
+        put(of, og);
+        return false;
+    }
+
+    // -------------------------------------------------------------------------------------
+
     void build_incidence() {
         const std::size_t n = s_.vertex_count();
         offsets_.assign(n + 1, 0);
@@ -293,9 +642,10 @@ private:
         if ((q - old).squaredNorm() <= 0.0) return false;
         star_normals(v, normals_);
         const double before = star_quality(v, nullptr);
+        const double wedge_before = star_wedge(v);
         s_.point(v) = q;
         const double after = star_quality(v, &normals_);
-        if (after >= before && after > 0.0) return true;
+        if (after >= before && after > 0.0 && wedge_kept(wedge_before, star_wedge(v))) return true;
         s_.point(v) = old;
         return false;
     }
@@ -384,11 +734,33 @@ private:
     std::vector<std::int32_t> offsets_, incident_;
     std::vector<Eigen::Vector3d> normals_;
     std::vector<std::pair<std::int32_t, std::int32_t>> ring_next_;
+    std::unordered_map<std::int64_t, std::vector<std::int32_t>> junction_;  // edge -> its faces
+    std::vector<std::int64_t> junction_keys_;  // sorted: the order of wedge_pass
+    std::vector<std::uint8_t> jmask_;  // per face: bit i = edge (t[i], t[i+1]) is a junction edge
     double cos_turn_ = 0.0, cos_flat_ = 1.0;
     static constexpr double kCosBadFlat = 0.8660254037844387;  // cos 30 degrees
+    // Region wedges: no change may lower one under the guard (or lower one already under
+    // it); wedge_pass keeps faces at >= min(their angle, kWedgeMinAngleDeg).
+    static constexpr double kWedgeMinAngleDeg = 22.0;
+    double guard_deg_ = 0.0;  // min(wedge_target_deg, 20); 0 = no guard
 };
 
 }  // namespace
+
+std::vector<ThinWedge> thin_region_wedges(const core::SurfaceNetwork& surface, double below_deg) {
+    const EdgeTable et = edge_table(surface);
+    std::vector<ThinWedge> thin;
+    for (std::size_t e = 0; e < et.edge_count(); ++e) {
+        const auto b = std::size_t(et.face_offsets[e]), n = std::size_t(et.face_offsets[e + 1]) - b;
+        if (n < 3) continue;
+        const std::vector<std::int32_t> faces(et.edge_faces.begin() + std::ptrdiff_t(b),
+                                              et.edge_faces.begin() + std::ptrdiff_t(b + n));
+        const auto [v0, v1] = et.vertices[e];
+        const double w = smallest_edge_wedge(surface, v0, v1, faces);
+        if (w < below_deg) thin.push_back({0.5 * (surface.point(v0) + surface.point(v1)), w});
+    }
+    return thin;
+}
 
 // Faces with a smallest angle under this get the direct search of worst_pass.
 constexpr double kWorstAngleDeg = 25.0;
@@ -420,6 +792,17 @@ SmoothingReport smooth_surface(core::SurfaceNetwork& surface,
             report.flips += flips;
             if (moves == 0 && flips == 0) break;
         }
+    if (params.iterations > 0 && params.wedge_target_deg > 0.0) {
+        report.min_wedge_before_deg = smoother.min_wedge();
+        for (int pass = 0; pass < 4; ++pass) {
+            const std::size_t changes = smoother.wedge_pass(params.wedge_target_deg);
+            report.wedge_changes += changes;
+            if (changes == 0) break;
+        }
+        report.min_wedge_after_deg = smoother.min_wedge();
+        ctx.add("remesh.wedge_changes", double(report.wedge_changes));
+        ctx.count("remesh.min_region_wedge_deg", report.min_wedge_after_deg);
+    }
     report.min_angle_after_deg = global_min_angle(surface);
     ctx.add("remesh.smoothing_moves", double(report.moves));
     ctx.add("remesh.edge_flips", double(report.flips));

@@ -36,6 +36,10 @@ struct SmoothingParams {
     double flip_max_dihedral_deg = 10.0; ///< only flip edges whose two faces are this flat
     /// A move is refused when a face's normal turns by more than this (degrees): no folds.
     double max_normal_turn_deg = 30.0;
+    /// Region wedges (interior dihedral angle of a region between its two faces at a junction
+    /// edge) under this are raised by a last pass of moves and flips, and no move or flip may
+    /// lower one under min(this, 20); 0 = off (no guard either).
+    double wedge_target_deg = 20.0;
 };
 
 struct SmoothingReport {
@@ -43,7 +47,21 @@ struct SmoothingReport {
     std::size_t flips = 0;  ///< accepted edge flips, all passes
     double min_angle_before_deg = 0.0;
     double min_angle_after_deg = 0.0;
+    std::size_t wedge_changes = 0;      ///< moves + flips of the wedge passes
+    double min_wedge_before_deg = 0.0;  ///< smallest region wedge before the wedge passes
+    double min_wedge_after_deg = 0.0;   ///< and after (360 when there is no junction edge)
 };
+
+/// A junction edge (three or more faces) where a region's wedge, the interior dihedral angle
+/// between its two faces there, is small: every tetrahedron of the region on that edge has a
+/// dihedral angle no larger.
+struct ThinWedge {
+    Eigen::Vector3d midpoint;  ///< of the edge
+    double wedge_deg = 0.0;    ///< the smallest region wedge there
+};
+
+/// Junction edges of `surface` with a region wedge under `below_deg`, in edge order.
+std::vector<ThinWedge> thin_region_wedges(const core::SurfaceNetwork& surface, double below_deg);
 
 /// Improves `surface` in place: per pass, each vertex in id order moves to the angle-based
 /// position (the mean of its ring neighbours' edges rotated onto the bisectors of their ring
@@ -52,7 +70,10 @@ struct SmoothingReport {
 /// neighbours; a move is kept only if the smallest angle of the faces around the vertex does
 /// not drop and no face turns by more than `max_normal_turn_deg`. Then edges inside a patch
 /// are flipped where both faces are flat within `flip_max_dihedral_deg` and the smaller
-/// minimum angle of the pair grows. Topology of curves and patches is kept; deterministic.
+/// minimum angle of the pair grows. Region wedges (ThinWedge) at junction edges: no move or
+/// flip may lower one under min(wedge_target_deg, 20) (or lower one already under it), and a
+/// last pass raises those under wedge_target_deg by moves along patches and curves and flips.
+/// Topology of curves and patches is kept; deterministic.
 /// `constraints.vertex_face` is updated. Preconditions: sizes match the surface.
 SmoothingReport smooth_surface(core::SurfaceNetwork& surface,
                                const std::vector<const BackgroundPatch*>& patches,

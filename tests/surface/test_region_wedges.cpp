@@ -1,0 +1,245 @@
+// Region wedges of a remeshed network (issue 5): the interior dihedral angle of a region
+// between its two faces at a junction edge bounds every dihedral angle of a tetrahedron of
+// that region on the edge. The smoothing's wedge pass raises thin ones.
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <numbers>
+
+#include <catch2/catch.hpp>
+
+#include "pipeline/core/quality.h"
+#include "surface/features.h"
+#include "surface/front_triangulate.h"
+#include "surface/surface_smoothing.h"
+
+using namespace frontmesh;
+
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+
+// Smallest interior dihedral angle (degrees) of any region at any edge with three or more
+// faces, each region seen through its own two faces there (normal out of region_in).
+double min_region_wedge(const core::SurfaceNetwork& s) {
+    std::map<std::pair<std::int32_t, std::int32_t>, std::vector<std::int32_t>> edges;
+    for (std::size_t f = 0; f < s.face_count(); ++f)
+        for (int i = 0; i < 3; ++i) {
+            const auto a = s.faces[f][std::size_t(i)], b = s.faces[f][std::size_t((i + 1) % 3)];
+            edges[{std::min(a, b), std::max(a, b)}].push_back(std::int32_t(f));
+        }
+    double smallest = 360.0;
+    for (const auto& [e, faces] : edges) {
+        if (faces.size() < 3) continue;
+        std::map<core::Label, std::vector<std::int32_t>> by_region;
+        for (const auto f : faces) {
+            by_region[s.region_in[std::size_t(f)]].push_back(f);
+            if (s.region_out[std::size_t(f)] != 0)
+                by_region[s.region_out[std::size_t(f)]].push_back(f);
+        }
+        for (const auto& [r, rf] : by_region) {
+            if (rf.size() != 2) continue;
+            // Outward normals of the region's faces; the wedge from their third vertices.
+            auto outward = [&](std::int32_t f) {
+                const auto& t = s.faces[std::size_t(f)];
+                Eigen::Vector3d n =
+                    (s.point(t[1]) - s.point(t[0])).cross(s.point(t[2]) - s.point(t[0]));
+                return s.region_in[std::size_t(f)] == r ? n : Eigen::Vector3d(-n);
+            };
+            auto third = [&](std::int32_t f) -> Eigen::Vector3d {
+                for (const auto x : s.faces[std::size_t(f)])
+                    if (x != e.first && x != e.second) return s.point(x);
+                return s.point(e.first);
+            };
+            const Eigen::Vector3d A = s.point(e.first), d = (s.point(e.second) - A).normalized();
+            Eigen::Vector3d p1 = third(rf[0]) - A, p2 = third(rf[1]) - A;
+            p1 -= p1.dot(d) * d;
+            p2 -= p2.dot(d) * d;
+            const double theta =
+                std::acos(std::clamp(p1.normalized().dot(p2.normalized()), -1.0, 1.0)) * 180.0 /
+                kPi;
+            const bool convex = outward(rf[0]).dot(third(rf[1]) - A) < 0.0;
+            smallest = std::min(smallest, convex ? theta : 360.0 - theta);
+        }
+    }
+    return smallest;
+}
+
+// A lens: region 1 between the plane z = 0 (the interface, a disk of radius R) and a
+// spherical cap above it (sphere of radius 10 centred at (0, 0, -c)); region 2 its mirror
+// below. At the rim the regions meet the outside in a wedge of acos(c / 10) degrees each.
+// `rings` rings of vertices between rim and pole, `n` vertices per ring (rim: n * rim_factor).
+struct Lens {
+    core::SurfaceNetwork s;
+    std::vector<std::int32_t> face_patch;  // 0 upper cap, 1 disk, 2 lower cap
+    std::vector<std::int32_t> rim;         // rim vertices in order
+};
+
+Lens make_lens(double c, int rim_n, const std::vector<double>& ring_radii,
+               const std::vector<int>& ring_n) {
+    const double rs = 10.0, R = std::sqrt(rs * rs - c * c);
+    Lens lens;
+    auto& s = lens.s;
+    for (int i = 0; i < rim_n; ++i) {
+        const double a = 2.0 * kPi * i / rim_n;
+        lens.rim.push_back(s.add_vertex({R * std::cos(a), R * std::sin(a), 0.0}));
+    }
+    auto add = [&](std::int32_t a, std::int32_t b, std::int32_t d, core::Label in, core::Label out,
+                   const Eigen::Vector3d& outward_of_in, std::int32_t patch) {
+        const Eigen::Vector3d n = (s.point(b) - s.point(a)).cross(s.point(d) - s.point(a));
+        if (n.dot(outward_of_in) >= 0.0)
+            s.add_face(a, b, d, in, out);
+        else
+            s.add_face(a, d, b, in, out);
+        lens.face_patch.push_back(patch);
+    };
+    // Rings joined by a sweep over their angles (both rings ordered by angle from 0).
+    auto join = [&](const std::vector<std::int32_t>& outer, const std::vector<std::int32_t>& inner,
+                    auto&& put) {
+        const std::size_t no = outer.size(), ni = inner.size();
+        std::size_t i = 0, j = 0;
+        while (i < no || j < ni) {
+            const double ao = double(i) / double(no), ai = double(j) / double(ni);
+            if (j >= ni || (i < no && ao + 0.5 / double(no) <= ai + 0.5 / double(ni))) {
+                put(outer[i % no], outer[(i + 1) % no], inner[j % ni]);
+                ++i;
+            } else {
+                put(inner[j % ni], inner[(j + 1) % ni], outer[i % no]);
+                ++j;
+            }
+        }
+    };
+    for (const int side : {1, -1}) {
+        // Cap: rings on the sphere, then the pole.
+        std::vector<std::int32_t> prev = lens.rim;
+        const Eigen::Vector3d centre(0.0, 0.0, -side * c);
+        const core::Label region = side > 0 ? 1 : 2;
+        auto put = [&](std::int32_t a, std::int32_t b, std::int32_t d) {
+            const Eigen::Vector3d m = (s.point(a) + s.point(b) + s.point(d)) / 3.0;
+            add(a, b, d, region, 0, m - centre, side > 0 ? 0 : 2);
+        };
+        for (std::size_t k = 0; k < ring_radii.size(); ++k) {
+            std::vector<std::int32_t> ring;
+            const double r = ring_radii[k], z = std::sqrt(rs * rs - r * r) - c;
+            for (int i = 0; i < ring_n[k]; ++i) {
+                const double a = 2.0 * kPi * (i + 0.5 * (k % 2)) / ring_n[k];
+                ring.push_back(s.add_vertex({r * std::cos(a), r * std::sin(a), side * z}));
+            }
+            join(prev, ring, put);
+            prev = ring;
+        }
+        const std::int32_t pole = s.add_vertex({0.0, 0.0, side * (rs - c)});
+        for (std::size_t i = 0; i < prev.size(); ++i)
+            put(prev[i], prev[(i + 1) % prev.size()], pole);
+    }
+    // Disk: the interface, normal out of region 1 (down).
+    const std::int32_t centre = s.add_vertex({0.0, 0.0, 0.0});
+    for (std::size_t i = 0; i < lens.rim.size(); ++i)
+        add(lens.rim[i], lens.rim[(i + 1) % lens.rim.size()], centre, 1, 2, {0.0, 0.0, -1.0}, 1);
+    return lens;
+}
+
+}  // namespace
+
+TEST_CASE("smoothing keeps a thin region wedge at a junction curve open, on the background",
+          "[remesh][wedge]") {
+    // Background: a fine lens (rim of 96 points, wedge 18.2 degrees at the rim). Output: a
+    // coarse lens on the same rim (every 8th point), one ring of 6 vertices on each cap: the
+    // chords from the rim to that ring close the wedge by about 4 degrees, and the angle-based
+    // smoothing, blind to wedges (wedge_target_deg 0), closes it further.
+    const double c = 9.5, rim_radius = std::sqrt(100.0 - c * c);
+    std::vector<double> fine_r;
+    std::vector<int> fine_n;
+    for (int k = 1; k < 14; ++k) {
+        fine_r.push_back(rim_radius * (1.0 - k / 14.0));
+        fine_n.push_back(std::max(6, int(96 * (1.0 - k / 14.0))));
+    }
+    const Lens bg = make_lens(c, 96, fine_r, fine_n);
+    std::vector<std::vector<std::int32_t>> patch_faces(3);
+    for (std::size_t f = 0; f < bg.s.face_count(); ++f)
+        patch_faces[std::size_t(bg.face_patch[f])].push_back(std::int32_t(f));
+    std::vector<surface::BackgroundPatch> patches;
+    for (auto& faces : patch_faces) patches.emplace_back(bg.s, faces, false);
+    const std::vector<const surface::BackgroundPatch*> pointers{&patches[0], &patches[1],
+                                                                &patches[2]};
+
+    auto run = [&](double target, surface::SmoothingReport& report) {
+        Lens coarse = make_lens(c, 12, {0.7 * rim_radius}, {6});
+        // Coarse rim = every 8th background rim point (same positions, exactly).
+        for (std::size_t i = 0; i < coarse.rim.size(); ++i)
+            for (int k = 0; k < 3; ++k)
+                coarse.s.xyz[3 * std::size_t(coarse.rim[i]) + std::size_t(k)] =
+                    bg.s.xyz[3 * std::size_t(bg.rim[8 * i]) + std::size_t(k)];
+        // The other vertices onto the background (the analytic cap lies above its chords).
+        std::vector<char> placed(coarse.s.vertex_count(), 0);
+        for (const auto v : coarse.rim) placed[std::size_t(v)] = 1;
+        for (std::size_t f = 0; f < coarse.s.face_count(); ++f)
+            for (const auto v : coarse.s.faces[f])
+                if (!placed[std::size_t(v)]) {
+                    placed[std::size_t(v)] = 1;
+                    const Eigen::Vector3d q = pointers[std::size_t(coarse.face_patch[f])]
+                                                  ->project(coarse.s.point(v))
+                                                  .point;
+                    for (int k = 0; k < 3; ++k)
+                        coarse.s.xyz[3 * std::size_t(v) + std::size_t(k)] = q[k];
+                }
+        surface::SurfaceConstraints cons;
+        cons.face_patch = coarse.face_patch;
+        cons.vertex_face.assign(coarse.s.vertex_count(), -1);
+        surface::SurfaceCurve curve;
+        curve.is_closed = true;
+        double arc = 0.0;
+        for (std::size_t i = 0; i <= bg.rim.size(); ++i) {
+            const Eigen::Vector3d p = bg.s.point(bg.rim[i % bg.rim.size()]);
+            if (i > 0) arc += (p - curve.polyline.back()).norm();
+            curve.polyline.push_back(p);
+            if (i % 8 == 0) {
+                curve.vertices.push_back(coarse.rim[(i / 8) % coarse.rim.size()]);
+                curve.s.push_back(arc);
+            }
+        }
+        cons.curves.push_back(curve);
+        surface::SmoothingParams params;
+        params.iterations = 5;
+        params.wedge_target_deg = target;
+        core::StageContext ctx;
+        report = surface::smooth_surface(coarse.s, pointers, cons, params, ctx);
+        // Every vertex on its patch or on the rim; regions closed and oriented.
+        for (std::size_t f = 0; f < coarse.s.face_count(); ++f)
+            for (const auto v : coarse.s.faces[f])
+                CHECK(
+                    pointers[std::size_t(cons.face_patch[f])]->project(coarse.s.point(v)).distance <
+                    1e-9);
+        for (const auto& check : core::check_region_boundaries(coarse.s)) {
+            CHECK(check.is_closed());
+            CHECK(check.is_oriented());
+            CHECK(check.nonmanifold_edges == 0);
+        }
+        return coarse.s;
+    };
+    const double true_wedge = std::acos(c / 10.0) * 180.0 / kPi;
+    surface::SmoothingReport off, on;
+    const auto without = run(0.0, off);
+    const auto with = run(surface::SmoothingParams().wedge_target_deg, on);  // the default: 20
+    const double w_off = min_region_wedge(without), w_on = min_region_wedge(with);
+    double angle_on = 180.0;
+    for (const auto& t : with.faces)
+        angle_on = std::min(angle_on, core::triangle_min_angle_deg(
+                                          with.point(t[0]), with.point(t[1]), with.point(t[2])));
+    INFO("background wedge " << true_wedge << ", output without the pass " << w_off << ", with "
+                             << w_on << " (" << on.wedge_changes << " changes), min angle "
+                             << angle_on);
+    CHECK(w_off < 15.0);  // without: the chords and the smoothing close the wedge
+    CHECK(on.min_wedge_after_deg == Approx(w_on));
+    CHECK(on.min_wedge_after_deg >= on.min_wedge_before_deg);
+    CHECK(w_on > w_off + 1.0);  // with: moves and flips that close a wedge under 20 are refused
+    CHECK(w_on < true_wedge);   // chords of a convex cap never open it beyond the tangent
+    CHECK(angle_on >= 20.0);
+    // thin_region_wedges sees the same wedges.
+    const auto thin_off = surface::thin_region_wedges(without, w_off + 0.01);
+    REQUIRE_FALSE(thin_off.empty());
+    double smallest = 360.0;
+    for (const auto& w : thin_off) smallest = std::min(smallest, w.wedge_deg);
+    CHECK(smallest == Approx(w_off));
+    CHECK(surface::thin_region_wedges(with, w_on - 0.01).empty());
+}
