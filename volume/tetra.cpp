@@ -17,6 +17,7 @@
 
 #include "pipeline/core/adt.h"
 #include "pipeline/core/error.h"
+#include "pipeline/core/morton.h"
 #include "pipeline/core/predicates.h"
 #include "pipeline/core/quality.h"
 
@@ -76,20 +77,11 @@ constexpr const char* kStatNames[8] = {"bases_tried",         "bases_failed",
 /// Morton code of p on a 2^21 grid over `box` (bits of x, y, z interleaved): nearby points get
 /// nearby codes, mostly.
 std::uint64_t morton_code(const V3& p, const core::AdtBox& box) {
-    auto spread = [](std::uint64_t v) {  // 21 bits to every third bit
-        v &= 0x1fffffULL;
-        v = (v | v << 32) & 0x1f00000000ffffULL;
-        v = (v | v << 16) & 0x1f0000ff0000ffULL;
-        v = (v | v << 8) & 0x100f00f00f00f00fULL;
-        v = (v | v << 4) & 0x10c30c30c30c30c3ULL;
-        v = (v | v << 2) & 0x1249249249249249ULL;
-        return v;
-    };
     std::uint64_t code = 0;
     for (int a = 0; a < 3; ++a) {
         const double extent = box.hi[a] - box.lo[a];
         const double u = extent > 0.0 ? std::clamp((p[a] - box.lo[a]) / extent, 0.0, 1.0) : 0.0;
-        code |= spread(static_cast<std::uint64_t>(u * 2097151.0)) << a;
+        code |= core::morton_spread21(static_cast<std::uint64_t>(u * 2097151.0)) << a;
     }
     return code;
 }

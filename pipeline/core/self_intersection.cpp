@@ -14,6 +14,7 @@
 #include <tbb/parallel_for.h>
 
 #include "pipeline/core/error.h"
+#include "pipeline/core/morton.h"
 #include "pipeline/core/predicates.h"
 
 namespace frontmesh::core {
@@ -41,17 +42,6 @@ Box merged(const Box& a, const Box& b) {
         r.hi[k] = std::max(a.hi[k], b.hi[k]);
     }
     return r;
-}
-
-// Spreads the low 21 bits of v to every third bit (3-D Morton interleave).
-std::uint64_t spread_bits(std::uint64_t v) {
-    v &= 0x1fffff;
-    v = (v | v << 32) & 0x1f00000000ffffULL;
-    v = (v | v << 16) & 0x1f0000ff0000ffULL;
-    v = (v | v << 8) & 0x100f00f00f00f00fULL;
-    v = (v | v << 4) & 0x10c30c30c30c30c3ULL;
-    v = (v | v << 2) & 0x1249249249249249ULL;
-    return v;
 }
 
 // Bounding volume hierarchy over face boxes (a linear BVH). Faces are sorted along a Morton
@@ -90,7 +80,7 @@ public:
                 const double t = (centre(f, k) - lo[k]) / (hi[k] - lo[k]);
                 const double clamped = t > 0.0 ? std::min(t, 1.0) : 0.0;
                 const auto cell = static_cast<std::uint64_t>(clamped * 2097151.0);
-                code |= spread_bits(cell) << k;
+                code |= morton_spread21(cell) << k;
             }
             keys[f] = {code, static_cast<std::int32_t>(f)};
         }
