@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <initializer_list>
 #include <numbers>
 #include <string>
 #include <unordered_map>
@@ -185,44 +186,17 @@ public:
         std::sort(candidates.begin(), candidates.end());
         candidates.erase(std::unique(candidates.begin(), candidates.end()), candidates.end());
         std::size_t moves = 0;
-        std::vector<std::int32_t> ring;
         for (const std::int32_t v : candidates) {
-            const auto b = offsets_[std::size_t(v)], e = offsets_[std::size_t(v) + 1];
-            ring.clear();
-            for (auto k = b; k < e; ++k)
-                for (const auto x : s_.faces[std::size_t(incident_[std::size_t(k)])])
-                    if (x != v) ring.push_back(x);
-            std::sort(ring.begin(), ring.end());
-            ring.erase(std::unique(ring.begin(), ring.end()), ring.end());
-            const Eigen::Vector3d P = s_.point(v);
-            double mean_edge = 0.0;
-            for (const auto x : ring) mean_edge += (s_.point(x) - P).norm();
-            mean_edge /= double(std::max<std::size_t>(ring.size(), 1));
             star_normals(v, normals_);
-            const double before = star_quality(v, nullptr);
+            double best = star_quality(v, nullptr);
             const double wedge_before = star_wedge(v);
-            double best = before;
-            Eigen::Vector3d best_point = P;
-            std::int32_t best_face = -1;
-            const BackgroundPatch& patch = *patches_[std::size_t(c_.face_patch[std::size_t(incident_[std::size_t(b)])])];
-            const auto hint = c_.vertex_face[std::size_t(v)];
-            for (const auto x : ring) {
-                const Eigen::Vector3d dir = (s_.point(x) - P).normalized();
-                for (const double sign : {1.0, -1.0})
-                    for (const double step : {0.05, 0.12, 0.2, 0.35}) {
-                        const Eigen::Vector3d goal = P + sign * step * mean_edge * dir;
-                        const auto proj = hint >= 0 ? patch.project(goal, hint) : patch.project(goal);
-                        s_.point(v) = proj.point;
-                        const double q = star_quality(v, &normals_);
-                        if (q > best + 1e-9 && wedge_kept(wedge_before, star_wedge(v)))
-                            best = q, best_point = proj.point, best_face = proj.face;
-                    }
-            }
-            s_.point(v) = best_point;
-            if (best_face >= 0) {
-                c_.vertex_face[std::size_t(v)] = best_face;
-                ++moves;
-            }
+            const auto better = [&] {
+                const double q = star_quality(v, &normals_);
+                if (!(q > best + 1e-9 && wedge_kept(wedge_before, star_wedge(v)))) return false;
+                best = q;
+                return true;
+            };
+            if (patch_search(v, {0.05, 0.12, 0.2, 0.35}, better)) ++moves;
         }
         return moves;
     }
@@ -422,45 +396,57 @@ private:
     }
 
     std::size_t raise_wedge_free(std::int32_t v, std::int64_t k, double target) {
-        const auto b = offsets_[std::size_t(v)], e = offsets_[std::size_t(v) + 1];
-        if (b == e) return 0;
-        std::vector<std::int32_t> ring;
-        for (auto i = b; i < e; ++i)
-            for (const auto x : s_.faces[std::size_t(incident_[std::size_t(i)])])
-                if (x != v) ring.push_back(x);
-        std::sort(ring.begin(), ring.end());
-        ring.erase(std::unique(ring.begin(), ring.end()), ring.end());
-        const Eigen::Vector3d P = s_.point(v);
-        double mean_edge = 0.0;
-        for (const auto x : ring) mean_edge += (s_.point(x) - P).norm();
-        mean_edge /= double(ring.size());
         star_normals(v, normals_);
         const double floor = std::min(star_quality(v, nullptr), kWedgeMinAngleDeg);
         double best_touched = star_wedge(v), best_own = edge_wedge(k);
+        const auto better = [&] {
+            const double q = star_quality(v, &normals_);
+            if (q <= 0.0 || q < floor) return false;
+            const double touched = star_wedge(v), own = edge_wedge(k);
+            if (!wedge_better(touched, own, best_touched, best_own, target)) return false;
+            best_touched = touched, best_own = own;
+            return true;
+        };
+        return patch_search(v, {0.05, 0.12, 0.2, 0.35, 0.5}, better) ? 1 : 0;
+    }
+
+    // Direct search for free vertex v (worst_pass, wedge pass): steps of `steps` times the
+    // mean ring edge towards and away from each ring vertex, projected onto v's patch. At
+    // each trial point (v placed there) `better()` says whether it beats the best so far.
+    // v ends at the best point and its face is recorded; false when none was better (v stays).
+    template <class Better>
+    bool patch_search(std::int32_t v, std::initializer_list<double> steps, Better&& better) {
+        const auto b = offsets_[std::size_t(v)], e = offsets_[std::size_t(v) + 1];
+        if (b == e) return false;
+        ring_.clear();
+        for (auto k = b; k < e; ++k)
+            for (const auto x : s_.faces[std::size_t(incident_[std::size_t(k)])])
+                if (x != v) ring_.push_back(x);
+        std::sort(ring_.begin(), ring_.end());
+        ring_.erase(std::unique(ring_.begin(), ring_.end()), ring_.end());
+        const Eigen::Vector3d P = s_.point(v);
+        double mean_edge = 0.0;
+        for (const auto x : ring_) mean_edge += (s_.point(x) - P).norm();
+        mean_edge /= double(ring_.size());
         Eigen::Vector3d best_point = P;
         std::int32_t best_face = -1;
         const BackgroundPatch& patch =
             *patches_[std::size_t(c_.face_patch[std::size_t(incident_[std::size_t(b)])])];
         const auto hint = c_.vertex_face[std::size_t(v)];
-        for (const auto x : ring) {
+        for (const auto x : ring_) {
             const Eigen::Vector3d dir = (s_.point(x) - P).normalized();
             for (const double sign : {1.0, -1.0})
-                for (const double step : {0.05, 0.12, 0.2, 0.35, 0.5}) {
+                for (const double step : steps) {
                     const Eigen::Vector3d goal = P + sign * step * mean_edge * dir;
                     const auto proj = hint >= 0 ? patch.project(goal, hint) : patch.project(goal);
                     s_.point(v) = proj.point;
-                    const double q = star_quality(v, &normals_);
-                    if (q <= 0.0 || q < floor) continue;
-                    const double touched = star_wedge(v), own = edge_wedge(k);
-                    if (wedge_better(touched, own, best_touched, best_own, target))
-                        best_touched = touched, best_own = own, best_point = proj.point,
-                        best_face = proj.face;
+                    if (better()) best_point = proj.point, best_face = proj.face;
                 }
         }
         s_.point(v) = best_point;
-        if (best_face < 0) return 0;
+        if (best_face < 0) return false;
         c_.vertex_face[std::size_t(v)] = best_face;
-        return 1;
+        return true;
     }
 
     std::size_t raise_wedge_curve(std::int32_t v, std::int64_t k, double target) {
@@ -733,6 +719,7 @@ private:
     std::vector<Polyline> polylines_;
     std::vector<std::int32_t> offsets_, incident_;
     std::vector<Eigen::Vector3d> normals_;
+    std::vector<std::int32_t> ring_;  // scratch of patch_search
     std::vector<std::pair<std::int32_t, std::int32_t>> ring_next_;
     std::unordered_map<std::int64_t, std::vector<std::int32_t>> junction_;  // edge -> its faces
     std::vector<std::int64_t> junction_keys_;  // sorted: the order of wedge_pass
