@@ -116,6 +116,7 @@ private:
     const Label region_;
     const double sin_min_ = std::sin(params_.min_angle_deg * kDegToRad);  // step 4 angle tests
     const double cos_min_ = std::cos(params_.min_angle_deg * kDegToRad);
+    const double sin2_min_ = sin_min_ * sin_min_, cos2_min_ = cos_min_ * cos_min_;
     std::int32_t boundary_nodes_ = 0;
     std::vector<std::int32_t> global_of_local_;
 
@@ -234,13 +235,19 @@ private:
     }
 
     // ---- front edge length bound and face gathering ---------------------------------------
-    static int bucket_of(double len) {
-        if (!(len > 0.0)) return 0;
-        const int b = static_cast<int>(std::floor(4.0 * std::log2(len))) + kBuckets / 2;
+    /// floor(4 log2 len) + kBuckets / 2, clamped, from len^2 = m 2^e (m in [0.5, 1)) without a
+    /// logarithm: 4 log2 len = 2 e + 2 log2 m, whose floor is 2 e - 1 for m >= 2^(-1/2) and
+    /// 2 e - 2 below. A length in bucket b is below 2^((b + 1 - kBuckets / 2) / 4).
+    static int bucket_of(double len2) {
+        if (!(len2 > 0.0)) return 0;
+        if (!(len2 < std::numeric_limits<double>::infinity())) return kBuckets - 1;
+        int e = 0;
+        const double m = std::frexp(len2, &e);
+        const int b = 2 * e - (m >= 0.70710678118654752 ? 1 : 2) + kBuckets / 2;
         return std::clamp(b, 0, kBuckets - 1);
     }
     void count_edge(std::int32_t u, std::int32_t v, int delta) {
-        const int b = bucket_of((x(u) - x(v)).norm());
+        const int b = bucket_of((x(u) - x(v)).squaredNorm());
         edge_bucket_[b] += delta;
         if (delta > 0) {
             top_bucket_ = std::max(top_bucket_, b);
@@ -561,7 +568,7 @@ private:
         double limit = 2.0 * bk.h;
         if (bk.eta > 0.6) limit = std::max(limit, bk.max_b);
         if ((bk.xm - P).norm() >= limit) return false;
-        const double sin_min = sin_min_, cos_min = cos_min_;
+        const double sin_min = sin_min_;
         for (int i = 0; i < 3; ++i) {
             const std::int32_t ai = bk.a[i], aj = bk.a[(i + 1) % 3];
             const V3& Ai = bk.A[i];
@@ -608,8 +615,9 @@ private:
                     if (bq == q) continue;
                     V3 vp = x(bq) - Ai;
                     vp -= vp.dot(e) * e;
-                    const double vpl = vp.norm();
-                    if (vpl == 0.0 || up.dot(vp / vpl) >= cos_min) return false;
+                    // cos(angle) = up . vp / |vp| >= cos_min, squared (cos_min > 0): no root
+                    const double vpl2 = vp.squaredNorm(), c = up.dot(vp);
+                    if (vpl2 == 0.0 || (c > 0.0 && c * c >= cos2_min_ * vpl2)) return false;
                 }
                 // Edge-face angle test: the new face against the front edges at A_ki, A_kj
                 const V3 nf = (Aj - Ai).cross(P - Ai).normalized();
@@ -617,18 +625,22 @@ private:
                     const std::int32_t o = end == 0 ? ai : aj;
                     const V3 O = end == 0 ? Ai : Aj;
                     const V3 r1 = (end == 0 ? Aj : Ai) - O, r2 = P - O;
+                    const V3 c12 = r1.cross(r2);
                     for (std::int32_t k = face_head_[o]; k >= 0; k = fnext_[k]) {
                         const Tri& t = fv_[k / 3];
                         const int c = k % 3;
                         for (int side = 1; side <= 2; ++side) {
                             const std::int32_t xq = t[(c + side) % 3];
                             if (xq == ai || xq == aj || xq == q) continue;
-                            const V3 d = (x(xq) - O).normalized();
+                            // d unnormalised: |sin| = |d . nf| / |d| < sin_min, squared; the
+                            // wedge test below only needs the direction of d
+                            const V3 d = x(xq) - O;
+                            const double dl2 = d.squaredNorm();
+                            if (dl2 == 0.0) return false;
                             const double s = d.dot(nf);
-                            if (std::abs(s) >= sin_min) continue;
+                            if (s * s >= sin2_min_ * dl2) continue;
                             const V3 dp = d - s * nf;
                             // inside the face's wedge at O (between r1 and r2)?
-                            const V3 c12 = r1.cross(r2);
                             if (r1.cross(dp).dot(c12) >= 0.0 && dp.cross(r2).dot(c12) >= 0.0)
                                 return false;
                         }
@@ -927,7 +939,7 @@ bool RegionMesher::try_base(std::int32_t f, bool active_only, bool relaxed) {
                 cands.push_back({eps, d, q});
             } else {
                 // w: the first sphere of Eq. 11 holding q; Eq. 12 orders within it
-                const double w = std::max(
+                const double w = d <= r1 ? 1.0 : std::max(
                     1.0, std::ceil(std::log(std::max(d / bk.h, 1e-300)) / std::log(1.1) - 1e-12));
                 cands.push_back({w, (eps + 0.1) * d, q});
             }
