@@ -418,6 +418,30 @@ private:
         }
     }
 
+    // ---- the base of a try (§3.1.4) --------------------------------------------------------
+    /// One front face at a base node a_i, copied with what the tests of step 4 read: the
+    /// face, its other two nodes u, w in cyclic order (the face is (a_i, u, w)), their
+    /// positions and the unit normal. try_base copies the three stars once; every candidate's
+    /// tests then read them from one small array instead of walking the node->face lists and
+    /// the node and face arrays again (the front does not change before try_base returns).
+    struct StarFace {
+        std::int32_t f, u, w;
+        V3 U, W, n;
+    };
+    struct Base {
+        std::int32_t f = -1;
+        std::int32_t a[3] = {-1, -1, -1};
+        V3 A[3];
+        V3 n;            // unit normal N_k
+        double area = 0;  // a_k
+        double h = 0;     // h_k, Eq. 8
+        double eta = 0;   // Eq. 2
+        V3 xm, xo, xc;    // centre, reference point, Eq. 11 centre
+        double max_b = 0;  // max |x_ck B_ki|
+        std::int32_t star_begin[4] = {0, 0, 0, 0};  // star of a_i: stars_[star_begin[i], [i + 1])
+    };
+    std::vector<StarFace> stars_;  // the stars of the current base's nodes
+
     // ---- exact validity (predicates decide) -----------------------------------------------
     /// True when the closed segment (s0, s1) meets the closed triangle (t0, t1, t2) anywhere
     /// but at their shared vertices. Exact.
@@ -453,20 +477,32 @@ private:
     /// The front faces examined are those of `near` (an ADT query over a box holding the tet)
     /// whose boxes meet the tet's box: every front face that can touch the tet, a superset
     /// of the paper's nodes Q_v in the sphere of Eq. 9.
-    bool is_valid_tet(std::int32_t base, std::int32_t a, std::int32_t b, std::int32_t c,
-                      std::int32_t q, const std::vector<std::int32_t>& near) {
+    bool is_valid_tet(const Base& bk, std::int32_t q, const std::vector<std::int32_t>& near) {
+        const std::int32_t base = bk.f, a = bk.a[0], b = bk.a[1], c = bk.a[2];
         if (core::orient3d(p(a), p(b), p(c), p(q)) != -1) return false;
         const std::int32_t tv[4] = {a, b, c, q};
         std::int32_t existing[3];
         bool face_new[3], edge_new[3];
         for (int i = 0; i < 3; ++i) {
-            const std::int32_t u = tv[i], w = tv[(i + 1) % 3];
-            existing[i] = find_face(u, w, q);
-            // the outward face (u, w, q) must not already be on the front with that
+            // From the star of a_i (base node tv[i]): the front face with the nodes
+            // {a_i, a_j, q}, whether a_i q is a front edge.
+            const std::int32_t w = tv[(i + 1) % 3];
+            existing[i] = -1;
+            edge_new[i] = true;
+            bool cyclic = false;
+            for (int k = bk.star_begin[i]; k < bk.star_begin[i + 1]; ++k) {
+                const StarFace& sf = stars_[static_cast<std::size_t>(k)];
+                if (sf.u != q && sf.w != q) continue;
+                edge_new[i] = false;
+                if (existing[i] < 0 && (sf.u == w || sf.w == w)) {
+                    existing[i] = sf.f;
+                    cyclic = sf.u == w;  // the face is (a_i, w, q) in cyclic order
+                }
+            }
+            // the outward face (a_i, a_j, q) must not already be on the front with that
             // orientation: the tet would lie behind it
-            if (existing[i] >= 0 && same_cycle(fv_[existing[i]], u, w, q)) return false;
+            if (cyclic) return false;
             face_new[i] = existing[i] < 0;
-            edge_new[i] = !is_front_edge(tv[i], q);
         }
         // reference signs of the opposite vertices for the point-in-tet test
         static constexpr int kF[4][4] = {{0, 1, 2, 3}, {0, 1, 3, 2}, {1, 2, 3, 0}, {2, 0, 3, 1}};
@@ -547,17 +583,6 @@ private:
     }
 
     // ---- paper's quality tests of step 4 (doubles: they only rank and filter) -------------
-    struct Base {
-        std::int32_t f = -1;
-        std::int32_t a[3] = {-1, -1, -1};
-        V3 A[3];
-        V3 n;            // unit normal N_k
-        double area = 0;  // a_k
-        double h = 0;     // h_k, Eq. 8
-        double eta = 0;   // Eq. 2
-        V3 xm, xo, xc;    // centre, reference point, Eq. 11 centre
-        double max_b = 0;  // max |x_ck B_ki|
-    };
 
     bool passes_paper_tests(const Base& bk, std::int32_t q) const {
         const V3 P = x(q);
@@ -569,32 +594,38 @@ private:
         if (bk.eta > 0.6) limit = std::max(limit, bk.max_b);
         if ((bk.xm - P).norm() >= limit) return false;
         const double sin_min = sin_min_;
+        const StarFace* const star = stars_.data();
         for (int i = 0; i < 3; ++i) {
             const std::int32_t ai = bk.a[i], aj = bk.a[(i + 1) % 3];
             const V3& Ai = bk.A[i];
             const V3& Aj = bk.A[(i + 1) % 3];
-            bool has_edge = false, has_face = false;
-            edge_and_face(ai, aj, q, has_edge, has_face);
-            const bool edge_new = !has_edge, face_new = !has_face;
+            const int s0 = bk.star_begin[i], s1 = bk.star_begin[i + 1];
+            // is A_ki q a front edge, (A_ki, A_kj, q) a front face?
+            bool edge_new = true, face_new = true;
+            for (int k = s0; k < s1; ++k) {
+                const StarFace& sf = star[k];
+                if (sf.u != q && sf.w != q) continue;
+                edge_new = false;
+                if (sf.u == aj || sf.w == aj) {
+                    face_new = false;
+                    break;
+                }
+            }
             if (edge_new) {
                 const V3 d = (P - Ai).normalized();
                 // Over the manifold test: P above the plane of some front face at A_ki (the
                 // exact tests of is_valid_tet decide validity; this one only filters)
                 bool over = false;
-                for (std::int32_t k = face_head_[ai]; k >= 0 && !over; k = fnext_[k])
-                    over = d.dot(face_normal(k / 3)) > 0.0;
+                for (int k = s0; k < s1 && !over; ++k) over = d.dot(star[k].n) > 0.0;
                 if (!over) return false;
                 // Edge-face angle test: edge A_ki P against the front faces at A_ki
-                for (std::int32_t k = face_head_[ai]; k >= 0; k = fnext_[k]) {
-                    const std::int32_t g = k / 3;
-                    const Tri& t = fv_[g];
-                    const int c = k % 3;
-                    const V3 ng = face_normal(g);
-                    const double s = d.dot(ng);
-                    if (std::abs(s) >= sin_min) continue;
-                    const V3 dp = d - s * ng;
-                    const V3 u = x(t[(c + 1) % 3]) - Ai, w = x(t[(c + 2) % 3]) - Ai;
-                    if (u.cross(dp).dot(ng) >= 0.0 && dp.cross(w).dot(ng) >= 0.0) return false;
+                for (int k = s0; k < s1; ++k) {
+                    const StarFace& sf = star[k];
+                    const double sn = d.dot(sf.n);
+                    if (std::abs(sn) >= sin_min) continue;
+                    const V3 dp = d - sn * sf.n;
+                    const V3 u = sf.U - Ai, w = sf.W - Ai;
+                    if (u.cross(dp).dot(sf.n) >= 0.0 && dp.cross(w).dot(sf.n) >= 0.0) return false;
                 }
             }
             if (face_new) {
@@ -605,15 +636,12 @@ private:
                 if (upl == 0.0) return false;
                 up /= upl;
                 // Face-face (dihedral) angle test against every front face on edge A_ki A_kj
-                for (std::int32_t k = face_head_[ai]; k >= 0; k = fnext_[k]) {
-                    const std::int32_t g = k / 3;
-                    if (g == bk.f) continue;
-                    const Tri& t = fv_[g];
-                    if (t[0] != aj && t[1] != aj && t[2] != aj) continue;
-                    const std::int32_t bq = t[0] != ai && t[0] != aj ? t[0]
-                                            : t[1] != ai && t[1] != aj ? t[1] : t[2];
+                for (int k = s0; k < s1; ++k) {
+                    const StarFace& sf = star[k];
+                    if (sf.f == bk.f || (sf.u != aj && sf.w != aj)) continue;
+                    const std::int32_t bq = sf.u != aj ? sf.u : sf.w;
                     if (bq == q) continue;
-                    V3 vp = x(bq) - Ai;
+                    V3 vp = (sf.u != aj ? sf.U : sf.W) - Ai;
                     vp -= vp.dot(e) * e;
                     // cos(angle) = up . vp / |vp| >= cos_min, squared (cos_min > 0): no root
                     const double vpl2 = vp.squaredNorm(), c = up.dot(vp);
@@ -622,24 +650,23 @@ private:
                 // Edge-face angle test: the new face against the front edges at A_ki, A_kj
                 const V3 nf = (Aj - Ai).cross(P - Ai).normalized();
                 for (int end = 0; end < 2; ++end) {
-                    const std::int32_t o = end == 0 ? ai : aj;
-                    const V3 O = end == 0 ? Ai : Aj;
+                    const V3& O = end == 0 ? Ai : Aj;
                     const V3 r1 = (end == 0 ? Aj : Ai) - O, r2 = P - O;
                     const V3 c12 = r1.cross(r2);
-                    for (std::int32_t k = face_head_[o]; k >= 0; k = fnext_[k]) {
-                        const Tri& t = fv_[k / 3];
-                        const int c = k % 3;
-                        for (int side = 1; side <= 2; ++side) {
-                            const std::int32_t xq = t[(c + side) % 3];
+                    const int b0 = bk.star_begin[(i + end) % 3], b1 = bk.star_begin[(i + end) % 3 + 1];
+                    for (int k = b0; k < b1; ++k) {
+                        const StarFace& sf = star[k];
+                        for (int side = 0; side < 2; ++side) {
+                            const std::int32_t xq = side == 0 ? sf.u : sf.w;
                             if (xq == ai || xq == aj || xq == q) continue;
                             // d unnormalised: |sin| = |d . nf| / |d| < sin_min, squared; the
                             // wedge test below only needs the direction of d
-                            const V3 d = x(xq) - O;
+                            const V3 d = (side == 0 ? sf.U : sf.W) - O;
                             const double dl2 = d.squaredNorm();
                             if (dl2 == 0.0) return false;
-                            const double s = d.dot(nf);
-                            if (s * s >= sin2_min_ * dl2) continue;
-                            const V3 dp = d - s * nf;
+                            const double sn = d.dot(nf);
+                            if (sn * sn >= sin2_min_ * dl2) continue;
+                            const V3 dp = d - sn * nf;
                             // inside the face's wedge at O (between r1 and r2)?
                             if (r1.cross(dp).dot(c12) >= 0.0 && dp.cross(r2).dot(c12) >= 0.0)
                                 return false;
@@ -662,7 +689,7 @@ private:
         const int n = is_active(t[0]) + is_active(t[1]) + is_active(t[2]);
         return stage == 1 ? n == 3 : n >= 1;
     }
-    Base make_base(std::int32_t f, bool active_only) const;
+    Base make_base(std::int32_t f, bool active_only);
     bool try_base(std::int32_t f, bool active_only, bool relaxed);
     void run_stage(int stage, bool allow_remesh, std::int64_t& attempts);
     bool remesh_around(std::int32_t f);
@@ -814,14 +841,22 @@ void RegionMesher::setup_level() {
     }
 }
 
-RegionMesher::Base RegionMesher::make_base(std::int32_t f, bool active_only) const {
+RegionMesher::Base RegionMesher::make_base(std::int32_t f, bool active_only) {
     Base bk;
     bk.f = f;
     const Tri& t = fv_[f];
+    stars_.clear();
     for (int i = 0; i < 3; ++i) {
         bk.a[i] = t[i];
         bk.A[i] = x(t[i]);
+        bk.star_begin[i] = static_cast<std::int32_t>(stars_.size());
+        for (std::int32_t k = face_head_[t[i]]; k >= 0; k = fnext_[k]) {
+            const std::int32_t g = k / 3, c = k % 3;
+            const std::int32_t u = fv_[g][(c + 1) % 3], w = fv_[g][(c + 2) % 3];
+            stars_.push_back({g, u, w, x(u), x(w), face_normal(g)});
+        }
     }
+    bk.star_begin[3] = static_cast<std::int32_t>(stars_.size());
     bk.n = face_normal(f);
     bk.area = farea_[f];
     // Eq. 8 from the nodes on the n-th level front (§3.1.5); other nodes fall back on the
@@ -856,14 +891,11 @@ RegionMesher::Base RegionMesher::make_base(std::int32_t f, bool active_only) con
     bk.xc = 0.4 * bk.xm + 0.6 * xp;     // Eq. 11
     // B_ki: third node of a neighbour across each edge (length test)
     for (int i = 0; i < 3; ++i) {
-        const std::int32_t u = t[i], w = t[(i + 1) % 3];
-        for (std::int32_t k = face_head_[u]; k >= 0; k = fnext_[k]) {
-            const std::int32_t g = k / 3;
-            if (g == f) continue;
-            const Tri& s = fv_[g];
-            if (s[0] != w && s[1] != w && s[2] != w) continue;
-            for (std::int32_t b : s)
-                if (b != u && b != w) bk.max_b = std::max(bk.max_b, (x(b) - bk.xc).norm());
+        const std::int32_t w = t[(i + 1) % 3];
+        for (int k = bk.star_begin[i]; k < bk.star_begin[i + 1]; ++k) {
+            const StarFace& sf = stars_[static_cast<std::size_t>(k)];
+            if (sf.f == f || (sf.u != w && sf.w != w)) continue;
+            bk.max_b = std::max(bk.max_b, ((sf.u != w ? sf.U : sf.W) - bk.xc).norm());
             break;
         }
     }
@@ -971,7 +1003,7 @@ bool RegionMesher::try_base(std::int32_t f, bool active_only, bool relaxed) {
             return false;
         }
         ensure_near(q);
-        if (!is_valid_tet(f, bk.a[0], bk.a[1], bk.a[2], q, near)) {
+        if (!is_valid_tet(bk, q, near)) {
             ++stat_[3];
             return false;
         }
@@ -985,7 +1017,7 @@ bool RegionMesher::try_base(std::int32_t f, bool active_only, bool relaxed) {
                           : passes_paper_tests(bk, q);
         if (!ok) ++stat_[2];
         if (ok) ensure_near(q);
-        const bool valid = ok && is_valid_tet(f, bk.a[0], bk.a[1], bk.a[2], q, near);
+        const bool valid = ok && is_valid_tet(bk, q, near);
         if (ok && !valid) ++stat_[3];
         if (!valid) {
             pop_node();
