@@ -181,10 +181,18 @@ std::string svg_histogram(const std::string& title, const std::string& x_label, 
 
 std::vector<std::string> write_quality_report(const std::string& dir, const core::TetMesh& mesh,
                                               const core::TetMesh* before, const std::string& title) {
+    if (!before) return write_quality_report(dir, mesh, static_cast<const QualityHistograms*>(nullptr), title);
+    const QualityHistograms prior = quality_histograms(*before);
+    return write_quality_report(dir, mesh, &prior, title);
+}
+
+std::vector<std::string> write_quality_report(const std::string& dir, const core::TetMesh& mesh,
+                                              const QualityHistograms* before_histograms,
+                                              const std::string& title) {
     namespace fs = std::filesystem;
     const QualityHistograms after = quality_histograms(mesh);
-    QualityHistograms prior;
-    if (before) prior = quality_histograms(*before);
+    const bool before = before_histograms != nullptr;
+    const QualityHistograms prior = before ? *before_histograms : QualityHistograms{};
 
     const std::string surface_svg = svg_histogram(
         "Surface triangles: skewness (Eq. 2), " + std::to_string(after.faces) + " triangles", "skewness eta", 0, 1,

@@ -54,4 +54,9 @@ std::vector<std::string> write_quality_report(const std::string& dir, const core
                                               const core::TetMesh* before = nullptr,
                                               const std::string& title = "frontmesh run");
 
+/// The same with the histograms of the mesh before refinement (`before` may be null): the
+/// runner keeps them from the tetra stage of the same run instead of reading its checkpoint.
+std::vector<std::string> write_quality_report(const std::string& dir, const core::TetMesh& mesh,
+                                              const QualityHistograms* before, const std::string& title);
+
 }  // namespace frontmesh::pipeline

@@ -337,6 +337,7 @@ std::string run_recipe(const Recipe& recipe, const RunOptions& options) {
         io::write_text_atomically(out.with_ext(stages[i], ".json").string(), part);
     }
 
+    std::optional<QualityHistograms> tetra_histograms;  // kept for the quality report
     for (int i = first; i <= last; ++i) {
         const StageDef& stage = stages[i];
         core::StageContext ctx(
@@ -394,6 +395,8 @@ std::string run_recipe(const Recipe& recipe, const RunOptions& options) {
         if (stage.out == Kind::Tets) {
             const auto& mesh = std::get<core::TetMesh>(data);
             io::write_tet_mesh_vtu(mesh, out.checkpoint(stage).string(), fields);
+            if (stage.name == "tetra" && stages[last].name == "refine" && recipe.output.quality_report)
+                tetra_histograms = quality_histograms(mesh);  // "before refine" in report.html
             const TetReport report = tet_report(mesh);
             report_json = report.json;
             report_line = report.line;
@@ -462,10 +465,12 @@ std::string run_recipe(const Recipe& recipe, const RunOptions& options) {
             info("wrote " + file.string());
         }
         if (report) {
+            // The tetra histograms of this run, else those of its checkpoint (--from refine).
             const fs::path tetra_checkpoint = out.checkpoint(stages[static_cast<std::size_t>(last) - 1]);
-            std::optional<core::TetMesh> before;
-            if (fs::exists(tetra_checkpoint)) before = io::read_tet_mesh(tetra_checkpoint.string());
-            write_quality_report(out.dir.string(), mesh, before ? &*before : nullptr, recipe.path);
+            if (!tetra_histograms && fs::exists(tetra_checkpoint))
+                tetra_histograms = quality_histograms(io::read_tet_mesh(tetra_checkpoint.string()));
+            write_quality_report(out.dir.string(), mesh, tetra_histograms ? &*tetra_histograms : nullptr,
+                                 recipe.path);
             info("wrote " + (out.dir / "report.html").string());
         }
     }
