@@ -140,26 +140,26 @@ TetMeshCheck check_tet_mesh(const TetMesh& mesh) {
     // smallest node, then each node's few faces sorted by (key, owner), a total order, so the
     // result is the sorted sequence (deterministic). About 4x faster than one comparison sort
     // of the whole list (Colin27, 2.2M faces).
-    std::vector<FaceRef> unsorted;
-    unsorted.reserve(4 * nt + mesh.face_count());
-    for (std::size_t t = 0; t < nt; ++t)
-        for (int k = 0; k < 4; ++k) {
-            const auto f = tet_face(mesh, static_cast<std::int32_t>(t), k);
-            unsorted.push_back(make_ref(f[0], f[1], f[2], static_cast<std::int32_t>(4 * t + k)));
-        }
-    for (std::size_t f = 0; f < mesh.face_count(); ++f)
-        unsorted.push_back(make_ref(mesh.faces[f][0], mesh.faces[f][1], mesh.faces[f][2],
-                                    -1 - static_cast<std::int32_t>(f)));
+    // Two passes over the faces (count, then place) so only the sorted list is held.
     const std::size_t nn = mesh.node_count();
+    auto for_each_face = [&](auto&& take) {
+        for (std::size_t t = 0; t < nt; ++t)
+            for (int k = 0; k < 4; ++k) {
+                const auto f = tet_face(mesh, static_cast<std::int32_t>(t), k);
+                take(make_ref(f[0], f[1], f[2], static_cast<std::int32_t>(4 * t + k)));
+            }
+        for (std::size_t f = 0; f < mesh.face_count(); ++f)
+            take(make_ref(mesh.faces[f][0], mesh.faces[f][1], mesh.faces[f][2],
+                          -1 - static_cast<std::int32_t>(f)));
+    };
     std::vector<std::size_t> start(nn + 1, 0);
-    for (const FaceRef& f : unsorted) ++start[std::size_t(f.key[0]) + 1];
+    for_each_face([&](const FaceRef& f) { ++start[std::size_t(f.key[0]) + 1]; });
     for (std::size_t v = 0; v < nn; ++v) start[v + 1] += start[v];
-    std::vector<FaceRef> refs(unsorted.size());
+    std::vector<FaceRef> refs(start[nn]);
     {
         std::vector<std::size_t> fill(start.begin(), start.end() - 1);
-        for (const FaceRef& f : unsorted) refs[fill[std::size_t(f.key[0])]++] = f;
+        for_each_face([&](const FaceRef& f) { refs[fill[std::size_t(f.key[0])]++] = f; });
     }
-    std::vector<FaceRef>().swap(unsorted);
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nn, 4096),
                       [&](const tbb::blocked_range<std::size_t>& range) {
                           for (std::size_t v = range.begin(); v != range.end(); ++v)
