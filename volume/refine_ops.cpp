@@ -20,6 +20,11 @@ namespace {
 
 using V3 = Eigen::Vector3d;
 constexpr double kInf = std::numeric_limits<double>::infinity();
+// insert_node's rescue of the slivers the other operations leave (see there).
+constexpr double kRescueDihedralDeg = 10.0;  // slivers under this smallest angle
+constexpr double kRescueTargetDeg = 15.0;    // beyond it, the usual order decides
+constexpr double kRescueMinGainDeg = 2.0;    // a gain below the target is kept from this
+constexpr std::size_t kRescueExtraCaps = 8;  // more tets above skewness 0.8, at most
 constexpr double kRegularDihedralDeg = 70.528779365509308;  // arccos(1/3)
 
 /// Tets with skewness above 0.8 (the acceptance figure) among `tets` / the tets with ids `ids`.
@@ -759,7 +764,18 @@ bool RefineOps::insert_node(std::int32_t t, Objective objective) {
     std::vector<std::array<std::int32_t, 3>> chosen_boundary;
     V3 chosen_p = V3::Zero();
     double chosen_cost = kInf;
+    double chosen_dihedral = 0.0;
     const Tet t_nodes = topo_.tet(t);
+    // Rescue: a sliver under kRescueDihedralDeg that no flip, move or removal improved. Then the
+    // smallest dihedral angle comes first and the count of tets above skewness 0.8 may grow
+    // (by at most kRescueExtraCaps): on a thin or convex stretch of the boundary every split of
+    // the sliver leaves a few long tets (skewness > 0.8 with dihedral angles of 20 degrees and
+    // more, e.g. AAL region 62), which are far better elements and which the later sweeps can
+    // still improve, the new node being free to move.
+    const bool rescue =
+        tet_shape(topo_.xyz(t_nodes[0]), topo_.xyz(t_nodes[1]), topo_.xyz(t_nodes[2]),
+                  topo_.xyz(t_nodes[3]), true)
+            .min_dihedral_deg < kRescueDihedralDeg;
     for (int variant = 0; variant < 8; ++variant) {
         if (variant < 6) {
             // The ring of an edge of t not on a wall: the node splits the edge, then moves.
@@ -819,7 +835,8 @@ bool RefineOps::insert_node(std::int32_t t, Objective objective) {
                 if (!positive_tet(a, b, c, p.data())) return s;
                 const TetShape shape = tet_shape(a, b, c, p.data(), true);
                 s.over += shape.skewness > 0.8 ? 1 : 0;
-                if (s.over > old.over) return s;  // never kept: not worth finishing
+                if (s.over > old.over + (rescue ? kRescueExtraCaps : 0))
+                    return s;  // never kept: not worth finishing
                 s.min_dihedral = std::min(s.min_dihedral, shape.min_dihedral_deg);
                 const double dihedral_cost = 1.0 - shape.min_dihedral_deg / kRegularDihedralDeg;
                 s.max_cost = std::max(s.max_cost, objective == Objective::Skewness ? shape.skewness
@@ -830,8 +847,13 @@ bool RefineOps::insert_node(std::int32_t t, Objective objective) {
             s.valid = true;
             return s;
         };
-        auto better = [](const Score& x, const Score& y) {
+        auto better = [&](const Score& x, const Score& y) {
             if (x.valid != y.valid) return x.valid;
+            if (rescue) {  // the smallest angle first, up to the rescue target
+                const double dx = std::min(x.min_dihedral, kRescueTargetDeg);
+                const double dy = std::min(y.min_dihedral, kRescueTargetDeg);
+                if (dx != dy) return dx > dy;
+            }
             if (x.over != y.over) return x.over < y.over;
             if (x.max_cost != y.max_cost) return x.max_cost < y.max_cost;
             return x.min_dihedral > y.min_dihedral;
@@ -857,6 +879,39 @@ bool RefineOps::insert_node(std::int32_t t, Objective objective) {
         candidates.push_back(centroid_t);
         candidates.push_back(centroid_b);
         candidates.push_back(0.5 * (centroid_t + centroid_b));
+        if (rescue) {
+            // The deepest point of the cavity's kernel (largest smallest height over the
+            // boundary face planes), by subgradient steps along the normal of the lowest face:
+            // the kernel of a thin cavity can miss every point above.
+            std::vector<V3> unit(boundary.size()), on_plane(boundary.size());
+            for (std::size_t i = 0; i < boundary.size(); ++i) {
+                const V3 a = topo_.point(boundary[i][0]), b = topo_.point(boundary[i][1]),
+                         c = topo_.point(boundary[i][2]);
+                const V3 n = (b - a).cross(c - a);
+                unit[i] = n.norm() > 0.0 ? V3(n.normalized()) : V3::Zero();
+                on_plane[i] = a;
+            }
+            auto lowest = [&](const V3& p, std::size_t& which) {
+                double low = kInf;
+                for (std::size_t i = 0; i < boundary.size(); ++i) {
+                    const double d = unit[i].dot(p - on_plane[i]);
+                    if (d < low) low = d, which = i;
+                }
+                return low;
+            };
+            V3 p = centroid_b, deepest = centroid_b;
+            std::size_t which = 0;
+            double deepest_low = lowest(p, which);
+            double step = 0.2 * h;
+            for (int it = 0; it < 200; ++it, step *= 0.97) {
+                p += step * unit[which];
+                const double low = lowest(p, which);
+                if (low > deepest_low) deepest_low = low, deepest = p;
+            }
+            candidates.push_back(deepest);
+            candidates.push_back(0.5 * (deepest + centroid_b));
+            candidates.push_back(0.5 * (deepest + centroid_t));
+        }
         V3 best_p = centroid_b;
         Score best;
         for (const V3& p : candidates) {
@@ -885,6 +940,22 @@ bool RefineOps::insert_node(std::int32_t t, Objective objective) {
         // with the smallest dihedral angle not smaller (unless it stays above the sliver
         // threshold): near 1 the skewness saturates, so the cost alone could trade a 1 deg
         // sliver for a 0.1 deg one.
+        if (rescue) {
+            // Kept when the smallest angle grows to the target, or by kRescueMinGainDeg
+            if (!best.valid || !(best.min_dihedral > old.min_dihedral &&
+                                 (best.min_dihedral >= kRescueTargetDeg ||
+                                  best.min_dihedral >= old.min_dihedral + kRescueMinGainDeg)))
+                continue;
+            if (best.min_dihedral > chosen_dihedral ||
+                (best.min_dihedral == chosen_dihedral && best.max_cost < chosen_cost)) {
+                chosen_dihedral = best.min_dihedral;
+                chosen_cost = best.max_cost;
+                chosen_cavity = cavity_;
+                chosen_boundary = boundary;
+                chosen_p = best_p;
+            }
+            continue;
+        }
         const bool dihedral_gain =
             best.min_dihedral > old.min_dihedral && best.max_cost <= old.max_cost;
         const bool cost_gain =

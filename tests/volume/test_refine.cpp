@@ -375,6 +375,74 @@ TEST_CASE("A Steiner node mends a sliver whose four nodes are on the surface", "
     CHECK(single.compact().node_count() == 4);
 }
 
+namespace {
+
+// The four tets around an inner edge on a convex stretch of AAL region 62 (frontmesh's AAL
+// run, refine stage), the first of them a 7.2 degree sliver on two boundary triangles that no
+// flip, move or removal mended: every node placed in the ring to split it left more tets
+// above skewness 0.8 than before, which insert_node refused until its rescue of slivers.
+// Here all faces of the ring's hull are walls.
+core::TetMesh aal_ring() {
+    core::TetMesh m;
+    const std::int32_t n7 = m.add_node({42.634114328011378, -43.453635940825151, 37.33580305029605});
+    const std::int32_t n8 = m.add_node({43.438918479227183, -44.040870297462632, 37.370046175104555});
+    const std::int32_t n213 = m.add_node({43.208340770790166, -42.602898258382574, 38.023860972865279});
+    const std::int32_t n274 = m.add_node({43.775815590809522, -43.41069397537553, 37.984882628206464});
+    const std::int32_t n315 = m.add_node({43.264470652596493, -44.219414951438154, 38.416623794422804});
+    const std::int32_t n346 = m.add_node({42.099290221363347, -43.487969915474778, 38.265956381451481});
+    m.surface_vertices = 6;
+    for (Tet t : {Tet{n8, n7, n274, n213}, Tet{n346, n213, n274, n7}, Tet{n315, n7, n346, n274},
+                  Tet{n315, n8, n7, n274}}) {
+        const double* x = m.xyz.data();
+        if (!volume::positive_tet(x + 3 * t[0], x + 3 * t[1], x + 3 * t[2], x + 3 * t[3]))
+            std::swap(t[1], t[2]);
+        m.add_tet(t[0], t[1], t[2], t[3], 1);
+    }
+    // The hull: the tet faces (outward) that appear once.
+    static constexpr int kFace[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
+    std::vector<std::array<std::int32_t, 3>> all;
+    for (const Tet& t : m.tets)
+        for (const auto& f : kFace) all.push_back({t[f[0]], t[f[1]], t[f[2]]});
+    for (const auto& f : all) {
+        auto key = f;
+        std::sort(key.begin(), key.end());
+        const auto same = std::count_if(all.begin(), all.end(), [&](std::array<std::int32_t, 3> g) {
+            std::sort(g.begin(), g.end());
+            return g == key;
+        });
+        if (same == 1) m.faces.push_back(f);
+    }
+    m.region_in.assign(m.faces.size(), 1);
+    m.region_out.assign(m.faces.size(), 0);
+    return m;
+}
+
+}  // namespace
+
+TEST_CASE("A sliver on a convex stretch of boundary is split even at the cost of caps", "[refine]") {
+    const core::TetMesh input = aal_ring();
+    const auto before = volume::check_tet_mesh(input);
+    INFO(before.summary());
+    REQUIRE(before.valid());
+    REQUIRE(input.faces.size() == 8);
+    const auto q_before = volume::tet_quality(input);
+    REQUIRE(q_before.min_dihedral_deg < 7.5);  // the sliver, tet 0
+    TetTopology topo(input);
+    RefineOps ops(topo, RefineParams{});
+    REQUIRE(ops.insert_node(0, Objective::Combined));
+    REQUIRE(topo.check());
+    const core::TetMesh out = topo.compact();
+    const auto after = volume::check_tet_mesh(out);
+    INFO(after.summary());
+    CHECK(after.valid());
+    CHECK(after.volume == Approx(before.volume).epsilon(1e-12));
+    CHECK(same_surface(out, input));
+    CHECK(out.node_count() == input.node_count() + 1);
+    const auto q_after = volume::tet_quality(out);
+    CHECK(q_after.min_dihedral_deg >= 10.0);
+    CHECK(q_after.skewness_over_08 <= q_before.skewness_over_08 + 8);  // the rescue's bound
+}
+
 TEST_CASE("Poor input triangles: the Combined cost of a tet on one is its dihedral term",
           "[refine]") {
     // Node 3 nearly on segment 0-1: triangle (0, 3, 1) has a 170 deg angle, so every tet on it
