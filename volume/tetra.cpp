@@ -504,12 +504,12 @@ private:
             if (cyclic) return false;
             face_new[i] = existing[i] < 0;
         }
-        // reference signs of the opposite vertices for the point-in-tet test
+        // Reference signs of the opposite vertices for the point-in-tet test: orient3d of a
+        // permutation of (a, b, c, q) is orient3d(a, b, c, q) = -1 times its parity (exact
+        // signs obey it exactly): identity -1; one swap, and the two odd 4-element
+        // permutations below, +1.
         static constexpr int kF[4][4] = {{0, 1, 2, 3}, {0, 1, 3, 2}, {1, 2, 3, 0}, {2, 0, 3, 1}};
-        int ref[4];
-        for (int i = 0; i < 4; ++i)
-            ref[i] = core::orient3d(p(tv[kF[i][0]]), p(tv[kF[i][1]]), p(tv[kF[i][2]]),
-                                    p(tv[kF[i][3]]));
+        static constexpr int ref[4] = {-1, 1, 1, 1};
         double lo[3], hi[3];
         for (int k = 0; k < 3; ++k) {
             lo[k] = std::min({p(a)[k], p(b)[k], p(c)[k], p(q)[k]});
@@ -788,7 +788,7 @@ void RegionMesher::setup_level() {
     std::vector<std::int32_t> ids;
     for (std::int32_t j : front_nodes) {
         const double R = 3.0 * rs[j];
-        adt_.query_sphere(x(j), R, ids);
+        adt_.query_sphere(x(j), R, ids, core::AdtOrder::walk);  // order: ties of |c| only
         const V3 Nj = node_normal(j);
         bool have_faces = false;  // front faces of the box of the sphere, fetched once
         {
