@@ -132,6 +132,12 @@ private:
     std::vector<std::int32_t> tet_head_;      // first corner 4 t + c of the node's tets
     std::vector<std::int32_t> mark_;          // scratch stamps
     std::int32_t mark_value_ = 0;
+    struct NodeCode {
+        std::int32_t stamp;   // valid when it is the call's stamp
+        std::uint16_t code;
+    };
+    std::vector<NodeCode> node_code_;         // is_valid_tet's per-node codes
+    std::int32_t code_stamp_value_ = 0;
 
     // front triangles (normal points into the unmeshed part of the region)
     std::vector<Tri> fv_;
@@ -194,6 +200,13 @@ private:
     }
     V3 node_normal(std::int32_t v) const { return V3(normal_[3 * v], normal_[3 * v + 1], normal_[3 * v + 2]); }
     std::int32_t node_count() const { return static_cast<std::int32_t>(level_.size()); }
+    std::int32_t next_code_stamp() {
+        if (++code_stamp_value_ == std::numeric_limits<std::int32_t>::max()) {
+            for (NodeCode& c : node_code_) c.stamp = 0;
+            code_stamp_value_ = 1;
+        }
+        return code_stamp_value_;
+    }
     std::int32_t next_mark() {
         if (++mark_value_ == std::numeric_limits<std::int32_t>::max()) {
             std::fill(mark_.begin(), mark_.end(), 0);
@@ -219,6 +232,7 @@ private:
         face_head_.push_back(-1);
         tet_head_.push_back(-1);
         mark_.push_back(0);
+        node_code_.push_back({0, 0});
         return node_count() - 1;
     }
     void pop_node() {
@@ -232,6 +246,7 @@ private:
         face_head_.pop_back();
         tet_head_.pop_back();
         mark_.pop_back();
+        node_code_.pop_back();
     }
 
     // ---- front edge length bound and face gathering ---------------------------------------
@@ -532,33 +547,43 @@ private:
         }
         const std::int32_t stamp = next_mark();
         for (std::int32_t v : tv) mark_[v] = stamp;
+        // Per node of `near`, once per call (a node is in several faces): bits 0-5 its outcode
+        // against the tet's box (below lo / above hi on x, y, z), bits 6-9 the planes i it lies
+        // beyond by more than ptol, bits 10-13 the planes through it (the tet's own nodes).
+        const std::int32_t cstamp = next_code_stamp();
+        static constexpr std::uint16_t kOnPlanes[4] = {0b1011, 0b0111, 0b1101, 0b1110};
+        for (int j = 0; j < 4; ++j) {
+            node_code_[tv[j]] = {cstamp, static_cast<std::uint16_t>(kOnPlanes[j] << 10)};  // in the box
+        }
+        auto code_of = [&](std::int32_t w) -> std::uint16_t {
+            if (node_code_[w].stamp == cstamp) return node_code_[w].code;
+            const double* pw = p(w);
+            std::uint16_t c = 0;
+            for (int k = 0; k < 3; ++k) {
+                if (pw[k] < lo[k]) c |= static_cast<std::uint16_t>(1u << (2 * k));
+                if (pw[k] > hi[k]) c |= static_cast<std::uint16_t>(2u << (2 * k));
+            }
+            for (int i = 0; i < 4; ++i)
+                if (pn[i][0] * pw[0] + pn[i][1] * pw[1] + pn[i][2] * pw[2] - pd[i] > ptol[i])
+                    c |= static_cast<std::uint16_t>(1u << (6 + i));
+            node_code_[w] = {cstamp, c};
+            return c;
+        };
         for (std::int32_t f : near) {
             if (f == base || f == existing[0] || f == existing[1] || f == existing[2]) continue;
             const Tri& t = fv_[f];
-            bool apart = false;
-            for (int k = 0; k < 3 && !apart; ++k) {
-                const double fmin = std::min({p(t[0])[k], p(t[1])[k], p(t[2])[k]});
-                const double fmax = std::max({p(t[0])[k], p(t[1])[k], p(t[2])[k]});
-                apart = fmax < lo[k] || fmin > hi[k];
-            }
+            const std::uint16_t c0 = code_of(t[0]), c1 = code_of(t[1]), c2 = code_of(t[2]);
+            // The triangle's box misses the tet's: all three nodes beyond one side of it.
+            if ((c0 & c1 & c2 & 0x3F) != 0) continue;
             // A node of the triangle that spans plane i lies on it exactly; when the others
             // lie beyond it, the triangle meets the closed tet only in nodes (or the edge)
             // they share, which fails none of the tests below: the triangles around the tet's
-            // own nodes, most of `near`, need no exact test.
-            for (int i = 0; i < 4 && !apart; ++i) {
-                apart = true;
-                int beyond = 0;
-                const std::int32_t s0 = tv[kF[i][0]], s1 = tv[kF[i][1]], s2 = tv[kF[i][2]];
-                for (int k = 0; k < 3 && apart; ++k) {
-                    const std::int32_t w = t[k];
-                    if (w == s0 || w == s1 || w == s2) continue;
-                    const double* pw = p(w);
-                    apart = pn[i][0] * pw[0] + pn[i][1] * pw[1] + pn[i][2] * pw[2] - pd[i] > ptol[i];
-                    ++beyond;
-                }
-                apart = apart && beyond > 0;
-            }
-            if (apart) continue;
+            // own nodes, most of `near`, need no exact test. Per plane: every node on it or
+            // beyond it, and not all on it.
+            const unsigned on0 = c0 >> 10, on1 = c1 >> 10, on2 = c2 >> 10;
+            const unsigned ok = (on0 | ((c0 >> 6) & 0xF)) & (on1 | ((c1 >> 6) & 0xF)) &
+                                (on2 | ((c2 >> 6) & 0xF));
+            if ((ok & ~(on0 & on1 & on2) & 0xF) != 0) continue;
             for (std::int32_t w : t) {
                 if (mark_[w] == stamp) continue;
                 mark_[w] = stamp;
