@@ -443,6 +443,39 @@ TEST_CASE("A sliver on a convex stretch of boundary is split even at the cost of
     CHECK(q_after.skewness_over_08 <= q_before.skewness_over_08 + 8);  // the rescue's bound
 }
 
+TEST_CASE("Tets whose shape the surface fixes are counted and named", "[refine]") {
+    // One flat tet whose four faces are input triangles: nothing can change it.
+    core::TetMesh m;
+    m.add_node({0.0, 0.0, 0.0});
+    m.add_node({1.0, 0.0, 0.0});
+    m.add_node({0.5, 0.9, 0.0});
+    m.add_node({0.5, 0.3, 0.05});
+    m.surface_vertices = 4;
+    Tet t{0, 1, 2, 3};
+    if (!volume::positive_tet(m.xyz.data(), m.xyz.data() + 3, m.xyz.data() + 6, m.xyz.data() + 9))
+        std::swap(t[1], t[2]);
+    m.add_tet(t[0], t[1], t[2], t[3], 1);
+    static constexpr int kFace[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
+    for (const auto& f : kFace) m.faces.push_back({t[f[0]], t[f[1]], t[f[2]]});
+    m.region_in.assign(4, 1);
+    m.region_out.assign(4, 0);
+    REQUIRE(volume::check_tet_mesh(m).valid());
+    REQUIRE(volume::tet_quality(m).min_dihedral_deg < 10.0);
+    core::StageContext ctx;
+    const core::TetMesh out = volume::refine(m, RefineParams{}, ctx);
+    CHECK(out.tets.size() == 1);
+    CHECK(ctx.counters().at("refine.surface_fixed_under_10deg") == 1.0);
+    REQUIRE(ctx.warnings().size() == 1);
+    CHECK_THAT(ctx.warnings()[0], Catch::Contains("fixes their shape"));
+
+    // The AAL ring's sliver has two walls only: the rescue mends it, nothing is reported.
+    core::StageContext ring_ctx;
+    const core::TetMesh ring = volume::refine(aal_ring(), RefineParams{}, ring_ctx);
+    CHECK(volume::tet_quality(ring).min_dihedral_deg >= 10.0);
+    CHECK(ring_ctx.counters().at("refine.surface_fixed_under_10deg") == 0.0);
+    CHECK(ring_ctx.warnings().empty());
+}
+
 TEST_CASE("Poor input triangles: the Combined cost of a tet on one is its dihedral term",
           "[refine]") {
     // Node 3 nearly on segment 0-1: triangle (0, 3, 1) has a 170 deg angle, so every tet on it
