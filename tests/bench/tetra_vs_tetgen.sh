@@ -9,7 +9,10 @@
 # environment: FRONTMESH (the frontmesh executable; default build-main's), TETGEN_SWITCHES
 #   (default -pYq1.3; several sets separated by commas, e.g. "-pYq1.3,-pYq1.2,-pYq1.2 -O7"),
 #   THREADS (frontmesh --threads, default 1: the issue's one-core figure), REFINE (1: the
-#   frontmesh row is tetra + refine, the issue 5 comparison; default 0: tetra alone)
+#   frontmesh row is tetra + refine, the issue 5 comparison; default 0: tetra alone),
+#   REPS (runs of every tool, in turn: frontmesh, then each tetgen set, REPS times; the table
+#   shows each tool's median wall and CPU time and its largest peak memory; default 1. On a
+#   shared host, where one run can take 30% longer than the next, use 3 or 5)
 #
 # Runs `frontmesh run RECIPE --from tetra --until tetra` with
 #   {input: {surface: SURFACE}, output: {dir: WORKDIR/frontmesh}, tetra: {stretching: ALPHA}}
@@ -46,9 +49,13 @@ output:
 tetra:
   stretching: $ALPHA
 EOF
-/usr/bin/time -v "$FRONTMESH" run "$WORK/recipe.yaml" --from tetra --until "$UNTIL" --threads "$THREADS" \
-    > "$WORK/frontmesh/log.txt" 2> "$WORK/frontmesh/time.txt" || {
-    echo "frontmesh failed:"; tail -20 "$WORK/frontmesh/time.txt"; exit 1; }
+REPS=${REPS:-1}
+run_frontmesh() {  # run_frontmesh REP: timings in frontmesh/time-REP.txt
+    /usr/bin/time -v "$FRONTMESH" run "$WORK/recipe.yaml" --from tetra --until "$UNTIL" \
+        --threads "$THREADS" --force > "$WORK/frontmesh/log.txt" 2> "$WORK/frontmesh/time-$1.txt" || {
+        echo "frontmesh failed:"; tail -20 "$WORK/frontmesh/time-$1.txt"; exit 1; }
+}
+run_frontmesh 1
 FM_MESH=$WORK/frontmesh/mesh.vtu
 [ -f "$FM_MESH" ] || FM_MESH=$(ls "$WORK"/frontmesh/checkpoints/*-tetra.vtu | head -1)
 
@@ -78,8 +85,8 @@ for SW in "${SWITCH_SETS[@]}"; do
     mkdir -p "$D"
     cp "$WORK/tetgen/surf.smesh" "$D/"
     echo "$SW" > "$D/switches.txt"
-    ( cd "$D" && /usr/bin/time -v tetgen $SW -Q surf.smesh > log.txt 2> time.txt ) || {
-        echo "tetgen $SW failed:"; tail -20 "$D/time.txt"; exit 1; }
+    ( cd "$D" && /usr/bin/time -v tetgen $SW -Q surf.smesh > log.txt 2> time-1.txt ) || {
+        echo "tetgen $SW failed:"; tail -20 "$D/time-1.txt"; exit 1; }
     $PY - "$D/surf.1" "$D/mesh.vtu" <<'PYEOF'
 import sys
 import meshio
@@ -100,6 +107,16 @@ PYEOF
     TG_NAMES="$TG_NAMES tetgen-$k"
 done
 
+# ---- further runs, every tool in turn (same host noise for all) -------------------------
+for ((r = 2; r <= REPS; r++)); do
+    run_frontmesh "$r"
+    for T in $TG_NAMES; do
+        SW=$(cat "$WORK/$T/switches.txt")
+        ( cd "$WORK/$T" && /usr/bin/time -v tetgen $SW -Q surf.smesh > log.txt 2> "time-$r.txt" ) || {
+            echo "tetgen $SW failed:"; tail -20 "$WORK/$T/time-$r.txt"; exit 1; }
+    done
+done
+
 # ---- referee ------------------------------------------------------------------------------
 check() {  # check NAME MESH: meshcheck with the surface kept; ok.txt says whether it passed
     if $PY "$MESHCHECK" "$2" --surface "$SURFACE" --strict-surface --json "$WORK/$1/check.json" \
@@ -108,10 +125,11 @@ check() {  # check NAME MESH: meshcheck with the surface kept; ok.txt says wheth
 check frontmesh "$FM_MESH"
 for T in $TG_NAMES; do check "$T" "$WORK/$T/mesh.vtu"; done
 
-$PY - "$WORK" "$ALPHA" "$UNTIL" frontmesh $TG_NAMES <<'PYEOF'
-import json, re, sys
-work, alpha, until = sys.argv[1:4]
-names = sys.argv[4:]
+$PY - "$WORK" "$ALPHA" "$UNTIL" "$REPS" frontmesh $TG_NAMES <<'PYEOF'
+import json, re, statistics, sys
+work, alpha, until, reps = sys.argv[1:5]
+reps = int(reps)
+names = sys.argv[5:]
 def timing(path):
     t = open(path).read()
     wall = re.search(r"Elapsed \(wall clock\) time \(h:mm:ss or m:ss\): (\S+)", t).group(1)
@@ -123,8 +141,12 @@ def timing(path):
         float(re.search(r"System time \(seconds\): (\S+)", t).group(1))
     return s, rss, cpu
 rows = {}
+def timings(name):  # median wall and CPU, largest peak memory over the runs
+    runs = [timing("%s/%s/time-%d.txt" % (work, name, r)) for r in range(1, reps + 1)]
+    return (statistics.median(t[0] for t in runs), max(t[1] for t in runs),
+            statistics.median(t[2] for t in runs))
 for name in names:
-    wall, rss, cpu = timing("%s/%s/time.txt" % (work, name))
+    wall, rss, cpu = timings(name)
     c = json.load(open("%s/%s/check.json" % (work, name)))
     if name == "frontmesh":
         label = "frontmesh %s a%s" % ("tetra" if until == "tetra" else "tetra+refine", alpha)
@@ -136,6 +158,8 @@ for name in names:
                       skewmean=c["skewness"]["mean"], dmin=c["dihedral"]["min_deg"],
                       d10=100 * c["dihedral"]["frac_tets_min_lt_10"])
 print("surface: %s boundary triangles" % rows["frontmesh"]["bnd"])
+if reps > 1:
+    print("times: median of %d runs per tool, in turn; peak memory: the largest" % reps)
 print("%-30s %8s %8s %8s %10s %9s %9s %8s %9s %8s %8s %6s" % ("tool", "wall s", "cpu s", "peak MB",
       "tets", "nodes", "tets/s", "skew>.8%", "skew mean", "min dih", "<10deg%", "valid"))
 for name in names:
