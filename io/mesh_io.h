@@ -6,6 +6,7 @@
 #include <utility>
 #include <vector>
 
+#include "pipeline/core/quality.h"
 #include "pipeline/core/surface_network.h"
 #include "pipeline/core/tet_mesh.h"
 
@@ -33,14 +34,16 @@ void write_surface_vtu(const core::SurfaceNetwork& surface, const std::string& p
 core::SurfaceNetwork read_surface(const std::string& path, FieldStrings* fields = nullptr);
 
 /// Writes `mesh` as a VTK XML unstructured grid of tetrahedra (binary, zlib), atomically.
-/// Cell arrays: `region` (int32), `skewness` (Eq. 1) and `min_dihedral` (degrees) (float64);
+/// Cell arrays: `region` (int32), `skewness` (Eq. 1) and `min_dihedral` (degrees) (float32,
+/// from `figures` when given: core::tet_figures of every tet in order, else computed here);
 /// point array `level` (int32) when the mesh has one. The boundary and interface triangles
 /// travel in field data (`boundary_faces` int32 x3, `boundary_region_in`,
 /// `boundary_region_out`, `surface_vertices`), so the file holds only tets for ParaView and
 /// solvers while read_tet_mesh() restores the whole TetMesh. Field data: one string array
 /// per entry of `fields`. Throws IoError naming `path` on failure.
 void write_tet_mesh_vtu(const core::TetMesh& mesh, const std::string& path,
-                        const FieldStrings& fields);
+                        const FieldStrings& fields,
+                        const std::vector<core::TetFigures>* figures = nullptr);
 
 /// Reads a tetrahedral mesh from .vtu (as written by write_tet_mesh_vtu, or any VTU of tets:
 /// region from a cell array `region` when present, else 1; without boundary field data the

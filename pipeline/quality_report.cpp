@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "io/atomic_file.h"
+#include "pipeline/core/error.h"
 #include "pipeline/core/quality.h"
 
 namespace frontmesh::pipeline {
@@ -60,7 +61,9 @@ std::vector<std::size_t> as_vector(const std::array<std::size_t, N>& a) {
 
 }  // namespace
 
-QualityHistograms quality_histograms(const core::TetMesh& mesh) {
+QualityHistograms quality_histograms(const core::TetMesh& mesh,
+                                     const std::vector<core::TetFigures>* figures) {
+    FM_CHECK(figures == nullptr || figures->size() == mesh.tet_count());
     QualityHistograms h;
     constexpr int kS = QualityHistograms::kSkewBins, kD = QualityHistograms::kDihedralBins;
     for (const auto& f : mesh.faces) {
@@ -73,28 +76,21 @@ QualityHistograms quality_histograms(const core::TetMesh& mesh) {
     if (h.faces) h.surface_mean /= double(h.faces);
     for (std::size_t t = 0; t < mesh.tet_count(); ++t) {
         const auto& q = mesh.tets[t];
-        const Eigen::Vector3d p[4] = {mesh.point(q[0]), mesh.point(q[1]), mesh.point(q[2]), mesh.point(q[3])};
-        const double eps = core::tet_skewness(p[0], p[1], p[2], p[3]);  // Eq. 1
+        const core::TetFigures f =
+            figures != nullptr ? (*figures)[t]
+                               : core::tet_figures(mesh.point(q[0]), mesh.point(q[1]), mesh.point(q[2]),
+                                                   mesh.point(q[3]));
+        const double eps = f.skewness;  // Eq. 1
         ++h.tet_skewness[bin_of(eps, 0, 1, kS)];
         h.tet_mean += eps;
         h.tet_max = std::max(h.tet_max, eps);
         if (eps > 0.8) ++h.tet_over_08;
-        // Dihedral angle at the edge shared by faces k and l: pi minus the angle between
-        // their outward area vectors (face k is opposite node k).
-        const Eigen::Vector3d e1 = p[1] - p[0], e2 = p[2] - p[0], e3 = p[3] - p[0];
-        const Eigen::Vector3d a = e2.cross(e3), b = e3.cross(e1), c = e1.cross(e2);
-        const double sign = e1.dot(a) >= 0 ? 1.0 : -1.0;  // outward for either orientation
-        const Eigen::Vector3d n[4] = {sign * (a + b + c), -sign * a, -sign * b, -sign * c};
         double tmin = 180.0;
-        for (int k = 0; k < 4; ++k)
-            for (int l = k + 1; l < 4; ++l) {
-                const double den = n[k].norm() * n[l].norm();
-                const double angle =
-                    den > 0 ? std::acos(std::clamp(-n[k].dot(n[l]) / den, -1.0, 1.0)) * 180.0 / M_PI : 0.0;
-                ++h.dihedral[bin_of(angle, 0, 180, kD)];
-                tmin = std::min(tmin, angle);
-                h.max_dihedral_deg = std::max(h.max_dihedral_deg, angle);
-            }
+        for (const double angle : f.dihedral_deg) {
+            ++h.dihedral[bin_of(angle, 0, 180, kD)];
+            tmin = std::min(tmin, angle);
+            h.max_dihedral_deg = std::max(h.max_dihedral_deg, angle);
+        }
         ++h.min_dihedral[bin_of(tmin, 0, 180, kD)];
         h.min_dihedral_deg = std::min(h.min_dihedral_deg, tmin);
         auto& r = h.regions[mesh.region[t]];
@@ -188,9 +184,10 @@ std::vector<std::string> write_quality_report(const std::string& dir, const core
 
 std::vector<std::string> write_quality_report(const std::string& dir, const core::TetMesh& mesh,
                                               const QualityHistograms* before_histograms,
-                                              const std::string& title) {
+                                              const std::string& title,
+                                              const std::vector<core::TetFigures>* figures) {
     namespace fs = std::filesystem;
-    const QualityHistograms after = quality_histograms(mesh);
+    const QualityHistograms after = quality_histograms(mesh, figures);
     const bool before = before_histograms != nullptr;
     const QualityHistograms prior = before ? *before_histograms : QualityHistograms{};
 

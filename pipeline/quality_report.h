@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "pipeline/core/quality.h"
 #include "pipeline/core/tet_mesh.h"
 
 namespace frontmesh::pipeline {
@@ -33,8 +34,10 @@ struct QualityHistograms {
     std::map<core::Label, Region> regions;
 };
 
-/// Histograms of `mesh` (deterministic; O(tets + faces)).
-QualityHistograms quality_histograms(const core::TetMesh& mesh);
+/// Histograms of `mesh` (deterministic; O(tets + faces)). `figures`, when given, are
+/// core::tet_figures of every tet in order (else computed here).
+QualityHistograms quality_histograms(const core::TetMesh& mesh,
+                                     const std::vector<core::TetFigures>* figures = nullptr);
 
 /// An SVG bar chart of one or more histograms over [lo, hi] (same bin count), bars as a
 /// percentage of each series' total, side by side per bin; counts of the bins above
@@ -56,7 +59,9 @@ std::vector<std::string> write_quality_report(const std::string& dir, const core
 
 /// The same with the histograms of the mesh before refinement (`before` may be null): the
 /// runner keeps them from the tetra stage of the same run instead of reading its checkpoint.
+/// `figures` as for quality_histograms.
 std::vector<std::string> write_quality_report(const std::string& dir, const core::TetMesh& mesh,
-                                              const QualityHistograms* before, const std::string& title);
+                                              const QualityHistograms* before, const std::string& title,
+                                              const std::vector<core::TetFigures>* figures = nullptr);
 
 }  // namespace frontmesh::pipeline

@@ -126,8 +126,8 @@ std::string quality_json(const volume::TetQuality& q) {
 
 }  // namespace
 
-TetReport tet_report(const core::TetMesh& mesh) {
-    const volume::TetMeshCheck c = volume::check_tet_mesh(mesh);
+TetReport tet_report(const core::TetMesh& mesh, const std::vector<core::TetFigures>* figures) {
+    const volume::TetMeshCheck c = volume::check_tet_mesh(mesh, figures);
     std::ostringstream s;
     s << "{\"nodes\": " << c.nodes << ", \"tets\": " << c.tets << ", \"boundary_faces\": "
       << mesh.face_count() << ", \"valid\": " << (c.valid() ? "true" : "false")

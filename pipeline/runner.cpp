@@ -22,6 +22,7 @@
 #include "pipeline/version.h"
 #include "pipeline/quality_report.h"
 #include "pipeline/report.h"
+#include "volume/mesh_check.h"
 #include "volume/refine.h"
 #include "surface/morphology.h"
 #include "surface/remesh.h"
@@ -338,6 +339,7 @@ std::string run_recipe(const Recipe& recipe, const RunOptions& options) {
     }
 
     std::optional<QualityHistograms> tetra_histograms;  // kept for the quality report
+    std::vector<core::TetFigures> figures;              // of the last tet mesh a stage made
     for (int i = first; i <= last; ++i) {
         const StageDef& stage = stages[i];
         core::StageContext ctx(
@@ -394,10 +396,13 @@ std::string run_recipe(const Recipe& recipe, const RunOptions& options) {
         std::string report_json, report_line;
         if (stage.out == Kind::Tets) {
             const auto& mesh = std::get<core::TetMesh>(data);
-            io::write_tet_mesh_vtu(mesh, out.checkpoint(stage).string(), fields);
+            // Skewness and dihedral angles of every tet, once: the checkpoint's cell arrays,
+            // the report below and the histograms of report.html all read them.
+            figures = volume::tet_figures(mesh);
+            io::write_tet_mesh_vtu(mesh, out.checkpoint(stage).string(), fields, &figures);
             if (stage.name == "tetra" && stages[last].name == "refine" && recipe.output.quality_report)
-                tetra_histograms = quality_histograms(mesh);  // "before refine" in report.html
-            const TetReport report = tet_report(mesh);
+                tetra_histograms = quality_histograms(mesh, &figures);  // "before refine" in report.html
+            const TetReport report = tet_report(mesh, &figures);
             report_json = report.json;
             report_line = report.line;
             if (!report.valid) ctx.warn(stage.name + " produced an invalid mesh: " + report.line);
@@ -470,7 +475,7 @@ std::string run_recipe(const Recipe& recipe, const RunOptions& options) {
             if (!tetra_histograms && fs::exists(tetra_checkpoint))
                 tetra_histograms = quality_histograms(io::read_tet_mesh(tetra_checkpoint.string()));
             write_quality_report(out.dir.string(), mesh, tetra_histograms ? &*tetra_histograms : nullptr,
-                                 recipe.path);
+                                 recipe.path, figures.size() == mesh.tet_count() && ran_any ? &figures : nullptr);
             info("wrote " + (out.dir / "report.html").string());
         }
     }

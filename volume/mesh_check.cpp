@@ -9,6 +9,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include "pipeline/core/error.h"
 #include "pipeline/core/predicates.h"
 #include "pipeline/core/quality.h"
 
@@ -20,60 +21,21 @@ using core::TetMesh;
 // Outward faces of a positively oriented tet, face k opposite node k.
 constexpr int kFace[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
 
-struct TetFigures {
-    double skewness;
-    double min_dihedral;
-    double max_dihedral;
-};
-
-// Skewness (Eq. 1) and the extreme dihedral angles of one tet.
-TetFigures figures(const TetMesh& mesh, const std::array<std::int32_t, 4>& t) {
-    const Eigen::Vector3d p[4] = {mesh.point(t[0]), mesh.point(t[1]), mesh.point(t[2]),
-                                  mesh.point(t[3])};
-    TetFigures f{core::tet_skewness(p[0], p[1], p[2], p[3]), 180.0, 0.0};
-    // Outward area vectors of the faces; the dihedral angle at the edge shared by faces k and
-    // l is pi minus the angle between their outward normals.
-    Eigen::Vector3d n[4];
-    for (int k = 0; k < 4; ++k) {
-        n[k] = (p[kFace[k][1]] - p[kFace[k][0]]).cross(p[kFace[k][2]] - p[kFace[k][0]]);
-        const double len = n[k].norm();
-        if (len == 0.0) return {1.0, 0.0, 180.0};
-        n[k] /= len;
-    }
-    for (int k = 0; k < 4; ++k)
-        for (int l = k + 1; l < 4; ++l) {
-            const double c = std::clamp(-n[k].dot(n[l]), -1.0, 1.0);
-            const double angle = std::acos(c) * 180.0 / M_PI;
-            f.min_dihedral = std::min(f.min_dihedral, angle);
-            f.max_dihedral = std::max(f.max_dihedral, angle);
-        }
-    return f;
-}
-
-void accumulate(TetQuality& q, const TetFigures& f) {
+void accumulate(TetQuality& q, const core::TetFigures& f) {
+    const double min_dihedral = f.min_dihedral_deg();
     ++q.tets;
     q.mean_skewness += f.skewness;  // a sum until finish()
     q.max_skewness = std::max(q.max_skewness, f.skewness);
     if (f.skewness > 0.8) ++q.skewness_over_08;
-    q.min_dihedral_deg = std::min(q.min_dihedral_deg, f.min_dihedral);
-    q.max_dihedral_deg = std::max(q.max_dihedral_deg, f.max_dihedral);
+    q.min_dihedral_deg = std::min(q.min_dihedral_deg, min_dihedral);
+    q.max_dihedral_deg = std::max(q.max_dihedral_deg, f.max_dihedral_deg());
     q.skewness_histogram[std::min<std::size_t>(9, static_cast<std::size_t>(f.skewness * 10.0))]++;
-    q.dihedral_histogram[std::min<std::size_t>(17, static_cast<std::size_t>(f.min_dihedral / 10.0))]++;
+    q.dihedral_histogram[std::min<std::size_t>(17, static_cast<std::size_t>(min_dihedral / 10.0))]++;
 }
 
 void finish(TetQuality& q) {
     if (q.tets > 0) q.mean_skewness /= static_cast<double>(q.tets);
     if (q.tets == 0) q.min_dihedral_deg = 0.0;
-}
-
-std::vector<TetFigures> all_figures(const TetMesh& mesh) {
-    std::vector<TetFigures> out(mesh.tet_count());
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, out.size(), 2048),
-                      [&](const tbb::blocked_range<std::size_t>& r) {
-                          for (std::size_t t = r.begin(); t != r.end(); ++t)
-                              out[t] = figures(mesh, mesh.tets[t]);
-                      });
-    return out;
 }
 
 // One face of a tet (outward) or of the boundary list, keyed by its sorted nodes.
@@ -109,14 +71,45 @@ std::string fixed(double v, int digits) {
 
 }  // namespace
 
-TetQuality tet_quality(const TetMesh& mesh) {
+std::vector<core::TetFigures> tet_figures(const TetMesh& mesh) {
+    std::vector<core::TetFigures> out(mesh.tet_count());
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, out.size(), 2048),
+                      [&](const tbb::blocked_range<std::size_t>& r) {
+                          for (std::size_t t = r.begin(); t != r.end(); ++t) {
+                              const auto& c = mesh.tets[t];
+                              out[t] = core::tet_figures(mesh.point(c[0]), mesh.point(c[1]),
+                                                         mesh.point(c[2]), mesh.point(c[3]));
+                          }
+                      });
+    return out;
+}
+
+namespace {
+
+// The figures the caller computed for `mesh`, or a fresh computation into `own`.
+const std::vector<core::TetFigures>& figures_of(const TetMesh& mesh,
+                                                const std::vector<core::TetFigures>* given,
+                                                std::vector<core::TetFigures>& own) {
+    if (given != nullptr) {
+        FM_CHECK(given->size() == mesh.tet_count());
+        return *given;
+    }
+    own = tet_figures(mesh);
+    return own;
+}
+
+}  // namespace
+
+TetQuality tet_quality(const TetMesh& mesh, const std::vector<core::TetFigures>* figures) {
+    std::vector<core::TetFigures> own;
     TetQuality q;
-    for (const TetFigures& f : all_figures(mesh)) accumulate(q, f);  // serial: deterministic
+    for (const core::TetFigures& f : figures_of(mesh, figures, own))
+        accumulate(q, f);  // serial: deterministic
     finish(q);
     return q;
 }
 
-TetMeshCheck check_tet_mesh(const TetMesh& mesh) {
+TetMeshCheck check_tet_mesh(const TetMesh& mesh, const std::vector<core::TetFigures>* figures) {
     TetMeshCheck r;
     r.nodes = mesh.node_count();
     r.tets = mesh.tet_count();
@@ -219,7 +212,8 @@ TetMeshCheck check_tet_mesh(const TetMesh& mesh) {
         for (std::int32_t v : t) used[std::size_t(v)] = 1;
     r.unused_nodes = static_cast<std::size_t>(std::count(used.begin(), used.end(), 0));
 
-    const std::vector<TetFigures> figs = all_figures(mesh);
+    std::vector<core::TetFigures> own;
+    const std::vector<core::TetFigures>& figs = figures_of(mesh, figures, own);
     for (std::size_t t = 0; t < nt; ++t) {
         const auto& c = mesh.tets[t];
         const double v = core::tet_signed_volume(mesh.point(c[0]), mesh.point(c[1]),

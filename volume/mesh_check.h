@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "pipeline/core/quality.h"
 #include "pipeline/core/tet_mesh.h"
 
 namespace frontmesh::volume {
@@ -55,11 +56,19 @@ struct TetMeshCheck {
     std::string summary() const;
 };
 
-/// Quality of all tets of `mesh` (TBB, identical for any thread count).
-TetQuality tet_quality(const core::TetMesh& mesh);
+/// core::tet_figures of every tet of `mesh`, in tet order (TBB, identical for any thread
+/// count). The runner computes them once per mesh for the checks, the checkpoint's cell
+/// arrays and the quality report. 32 MB per million tets.
+std::vector<core::TetFigures> tet_figures(const core::TetMesh& mesh);
+
+/// Quality of all tets of `mesh` (TBB, identical for any thread count). `figures`, when
+/// given, are tet_figures(mesh) (else computed here).
+TetQuality tet_quality(const core::TetMesh& mesh,
+                       const std::vector<core::TetFigures>* figures = nullptr);
 
 /// Checks validity (conformity, orientation by exact predicates, boundary faces preserved
-/// with their regions) and quality, overall and per region.
-TetMeshCheck check_tet_mesh(const core::TetMesh& mesh);
+/// with their regions) and quality, overall and per region. `figures` as for tet_quality.
+TetMeshCheck check_tet_mesh(const core::TetMesh& mesh,
+                            const std::vector<core::TetFigures>* figures = nullptr);
 
 }  // namespace frontmesh::volume

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <iterator>
 #include <numbers>
 
 #include <Eigen/Geometry>
@@ -83,6 +84,39 @@ double tet_min_dihedral_deg(const Eigen::Vector3d& a, const Eigen::Vector3d& b,
         }
     }
     return smallest;
+}
+
+double TetFigures::min_dihedral_deg() const {
+    return *std::min_element(std::begin(dihedral_deg), std::end(dihedral_deg));
+}
+
+double TetFigures::max_dihedral_deg() const {
+    return *std::max_element(std::begin(dihedral_deg), std::end(dihedral_deg));
+}
+
+TetFigures tet_figures(const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+                       const Eigen::Vector3d& c, const Eigen::Vector3d& d) {
+    TetFigures f;
+    // The faces and angles as tet_min_dihedral_deg computes them.
+    const std::array<std::array<const Eigen::Vector3d*, 3>, 4> faces{{
+        {&b, &c, &d}, {&a, &d, &c}, {&a, &b, &d}, {&a, &c, &b}}};
+    std::array<Eigen::Vector3d, 4> n;
+    for (int i = 0; i < 4; ++i) {
+        const auto& g = faces[static_cast<std::size_t>(i)];
+        const Eigen::Vector3d normal = (*g[1] - *g[0]).cross(*g[2] - *g[0]);
+        const double length = normal.norm();
+        if (length == 0.0) return f;
+        n[static_cast<std::size_t>(i)] = normal / length;
+    }
+    f.skewness = tet_skewness(a, b, c, d);
+    int k = 0;
+    for (int i = 0; i < 4; ++i)
+        for (int j = i + 1; j < 4; ++j) {
+            const double angle =
+                std::numbers::pi - std::acos(std::clamp(n[i].dot(n[j]), -1.0, 1.0));
+            f.dihedral_deg[k++] = static_cast<float>(angle * 180.0 / std::numbers::pi);
+        }
+    return f;
 }
 
 }  // namespace frontmesh::core

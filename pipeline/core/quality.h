@@ -34,4 +34,20 @@ double tet_skewness(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Ei
 double tet_min_dihedral_deg(const Eigen::Vector3d& a, const Eigen::Vector3d& b,
                             const Eigen::Vector3d& c, const Eigen::Vector3d& d);
 
+/// The figures every report shows of one tetrahedron: skewness (Eq. 1) and its six interior
+/// dihedral angles in degrees, one per pair of faces (0,1) (0,2) (0,3) (1,2) (1,3) (2,3),
+/// face i opposite vertex i, kept as floats (they are looked at, not decided on; 32 bytes a
+/// tet). A tet with a zero-area face has skewness 1 and angles of 0 and 180 degrees.
+struct TetFigures {
+    double skewness = 1.0;
+    float dihedral_deg[6] = {0, 0, 0, 180, 180, 180};
+    double min_dihedral_deg() const;
+    double max_dihedral_deg() const;
+};
+
+/// TetFigures of tetrahedron (a, b, c, d), for either orientation: skewness as tet_skewness,
+/// min_dihedral_deg() as tet_min_dihedral_deg rounded to float.
+TetFigures tet_figures(const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+                       const Eigen::Vector3d& c, const Eigen::Vector3d& d);
+
 }  // namespace frontmesh::core

@@ -119,3 +119,41 @@ TEST_CASE("quality measures stay within their ranges on random elements", "[core
         CHECK(tet_min_dihedral_deg(d, c, b, a) == Approx(dihedral).margin(1e-9));
     }
 }
+
+TEST_CASE("tet_figures: skewness and all six dihedral angles of a tetrahedron", "[core]") {
+    // Corner tet: three right angles at the axes, three of acos(1/sqrt(3)).
+    const Vector3d o(0, 0, 0), x(1, 0, 0), y(0, 1, 0), z(0, 0, 1);
+    const double small = std::acos(1.0 / std::sqrt(3.0)) * 180.0 / std::numbers::pi;
+    for (const TetFigures& f : {tet_figures(o, x, y, z), tet_figures(o, y, x, z)}) {
+        CHECK(f.skewness == Approx(0.5).epsilon(1e-12));
+        int right = 0, acute = 0;
+        for (const float angle : f.dihedral_deg) {
+            if (std::abs(angle - 90.0) < 1e-4) ++right;
+            if (std::abs(angle - small) < 1e-4) ++acute;
+        }
+        CHECK(right == 3);
+        CHECK(acute == 3);
+        CHECK(f.min_dihedral_deg() == Approx(small).epsilon(1e-6));
+        CHECK(f.max_dihedral_deg() == Approx(90.0).epsilon(1e-6));
+    }
+    // A zero-area face: skewness 1, angles 0 and 180.
+    const TetFigures flat = tet_figures(o, o, x, y);
+    CHECK(flat.skewness == 1.0);
+    CHECK(flat.min_dihedral_deg() == 0.0);
+    CHECK(flat.max_dihedral_deg() == 180.0);
+    // Random tets: the same figures as the single measures, for either orientation; the
+    // six angles of a tet sum to between 360 and 540 degrees.
+    std::mt19937_64 rng(7);
+    std::uniform_real_distribution<double> u(-1.0, 1.0);
+    auto point = [&]() { return Vector3d(u(rng), u(rng), u(rng)); };
+    for (int trial = 0; trial < 500; ++trial) {
+        const Vector3d a = point(), b = point(), c = point(), d = point();
+        const TetFigures f = tet_figures(a, b, c, d);
+        CHECK(f.skewness == tet_skewness(a, b, c, d));
+        CHECK(f.min_dihedral_deg() == static_cast<float>(tet_min_dihedral_deg(a, b, c, d)));
+        CHECK(tet_figures(b, a, c, d).min_dihedral_deg() == Approx(f.min_dihedral_deg()).margin(1e-4));
+        double sum = 0.0;
+        for (const float angle : f.dihedral_deg) sum += angle;
+        CHECK((sum > 360.0 - 1e-3 && sum < 540.0 + 1e-3));
+    }
+}
