@@ -222,14 +222,14 @@ std::string run_recipe(const Recipe& recipe, const RunOptions& options) {
     };
 
     // A surface input enters at repair, or at the stage --from names (e.g. --from tetra meshes
-    // the surface as it is); an image enters at extract.
+    // the surface as it is); an image enters at extract. --from a stage that needs a tet mesh
+    // (refine) enters the surface at the last stage before it that takes one (tetra) and reads
+    // that stage's checkpoint, as a run from the image would.
     const bool surface_input = !recipe.input.surface.empty();
     const int last = options.until.empty() ? static_cast<int>(stages.size()) - 1 : index_of(options.until, "--until");
     int first = options.from.empty() ? -1 : index_of(options.from, "--from");
-    const int entry = !surface_input ? 0 : first >= 0 ? first : index_of("repair", "input.surface");
-    if (surface_input && stages[entry].in != Kind::Surface)
-        FM_THROW(InputError, "--from " + options.from + ": input.surface is a triangle surface; the " +
-                                 stages[entry].name + " stage needs a tetrahedral mesh");
+    int entry = !surface_input ? 0 : first >= 0 ? first : index_of("repair", "input.surface");
+    while (surface_input && entry > 0 && stages[entry].in != Kind::Surface) --entry;
     if (first > last) FM_THROW(InputError, "--from " + options.from + " comes after --until " + options.until);
 
     // Region names for the exports: the recipe's table, else the one beside the image. Read

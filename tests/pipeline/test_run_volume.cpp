@@ -121,10 +121,19 @@ TEST_CASE("a surface is meshed as it is with --from tetra", "[pipeline][volume]"
         INFO(report);
         CHECK(status == 0);
     }
-    // A surface cannot enter where a tet mesh is needed.
+    // --from refine refines the tetra checkpoint of the surface again.
+    const auto again = run_frontmesh("run recipe.yaml --from refine", dir);
+    INFO(again.err);
+    CHECK(again.exit_code == 0);
+    CHECK_THAT(again.err, Catch::Contains("reading checkpoint") && Catch::Contains("04-tetra.vtu"));
+    CHECK(io::read_tet_mesh((out / "mesh.vtu").string()).tets == mesh.tets);  // deterministic
+    // Without that checkpoint it is an error naming it, and nothing is written.
+    fs::remove(out / "checkpoints/04-tetra.vtu");
+    const auto before = fs::last_write_time(out / "mesh.vtu");
     const auto bad = run_frontmesh("run recipe.yaml --quiet --from refine", dir);
     CHECK(bad.exit_code == 2);
-    CHECK_THAT(bad.err, Catch::Contains("refine") && Catch::Contains("tetrahedral mesh"));
+    CHECK_THAT(bad.err, Catch::Contains("04-tetra.vtu") && Catch::Contains("does not exist"));
+    CHECK(fs::last_write_time(out / "mesh.vtu") == before);
 }
 
 TEST_CASE("AAL left hippocampus: real image to refined tets, refereed, exported", "[pipeline][volume][e2e]") {
