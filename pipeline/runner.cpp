@@ -229,7 +229,11 @@ std::string run_recipe(const Recipe& recipe, const RunOptions& options) {
     const int last = options.until.empty() ? static_cast<int>(stages.size()) - 1 : index_of(options.until, "--until");
     int first = options.from.empty() ? -1 : index_of(options.from, "--from");
     int entry = !surface_input ? 0 : first >= 0 ? first : index_of("repair", "input.surface");
-    while (surface_input && entry > 0 && stages[entry].in != Kind::Surface) --entry;
+    if (surface_input && stages[entry].in == Kind::Tets)
+        while (entry > 0 && stages[entry].in != Kind::Surface) --entry;
+    if (surface_input && stages[entry].in != Kind::Surface)
+        FM_THROW(InputError, "--from " + options.from + ": input.surface is a triangle surface; the " +
+                                 stages[entry].name + " stage needs an image");
     if (first > last) FM_THROW(InputError, "--from " + options.from + " comes after --until " + options.until);
 
     // Region names for the exports: the recipe's table, else the one beside the image. Read

@@ -201,7 +201,9 @@ TEST_CASE("a surface input enters at repair and keeps its regions", "[pipeline]"
     CHECK_THAT(r.err, Catch::Contains("reading surface") && Catch::Contains("[2/2] repair"));
     CHECK_FALSE(fs::exists(fs::path(dir) / "again/checkpoints/01-extract.vtu"));
     CHECK_THAT(slurp(fs::path(dir) / "again/summary.json"), Catch::Contains("\"regions_closed\": 3"));
-    CHECK(run_frontmesh("run surface.yaml --quiet --from extract", dir).exit_code == 2);
+    const auto from_extract = run_frontmesh("run surface.yaml --quiet --from extract", dir);
+    CHECK(from_extract.exit_code == 2);
+    CHECK_THAT(from_extract.err, Catch::Contains("extract") && Catch::Contains("needs an image"));
     write_file(dir + "/broken.off", "OFF\n4 1 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n4 0 1 2 3\n");
     const auto bad = run_frontmesh("run surface.yaml --quiet --set input.surface=broken.off", dir);
     CHECK(bad.exit_code == 2);
