@@ -710,6 +710,13 @@ RemeshResult remesh(const core::SurfaceNetwork& bg, const RemeshParams& params,
     // Region wedges at junction edges (issue 5): under 12 degrees, no tetrahedron of the
     // region on that edge can reach 12 (the smoothing's wedge pass raises them; reported).
     ctx.count("remesh.region_wedges_below_12_deg", double(thin_region_wedges(out, 12.0).size()));
+    // Spike tips (issue 5): a thin three-face cone whose only tetrahedron there is fixed by the
+    // surface; those under 10 degrees stay under 10 after refine (the tip pass raises them).
+    {
+        std::size_t below = 0;
+        for (const ForcedTet& tip : forced_tets(out, 20.0)) below += tip.min_dihedral_deg < 10.0;
+        ctx.count("remesh.forced_tets_below_10_deg", double(below));
+    }
     const SurfaceQuality q = surface_quality(out);
     ctx.count("remesh.vertices", double(out.vertex_count()));
     ctx.count("remesh.faces", double(out.face_count()));

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <initializer_list>
 #include <numbers>
+#include <optional>
 #include <string>
 #include <unordered_map>
 #include <unordered_set>
@@ -101,6 +102,110 @@ double global_min_angle(const core::SurfaceNetwork& s) {
         smallest = std::min(smallest,
                             core::triangle_min_angle_deg(s.point(t[0]), s.point(t[1]), s.point(t[2])));
     return smallest;
+}
+
+// A spike tip's fan (ForcedTet): the tet (T, x, y, z), T first, positive while the cone of
+// `region` at T is convex.
+struct FanTet {
+    std::array<std::int32_t, 4> v{};
+    core::Label region = 0;
+};
+
+// Faces around each vertex as CSR (`offsets` per vertex + 1, `incident` in face order).
+void vertex_faces(const core::SurfaceNetwork& s, std::vector<std::int32_t>& offsets,
+                  std::vector<std::int32_t>& incident) {
+    const std::size_t n = s.vertex_count();
+    offsets.assign(n + 1, 0);
+    for (const auto& t : s.faces)
+        for (const auto v : t) ++offsets[std::size_t(v) + 1];
+    for (std::size_t v = 0; v < n; ++v) offsets[v + 1] += offsets[v];
+    incident.assign(static_cast<std::size_t>(offsets[n]), -1);
+    std::vector<std::int32_t> fill(offsets.begin(), offsets.end() - 1);
+    for (std::size_t f = 0; f < s.face_count(); ++f)
+        for (const auto v : s.faces[f])
+            incident[std::size_t(fill[std::size_t(v)]++)] = static_cast<std::int32_t>(f);
+}
+
+// The fan of region r at t when it has exactly the three faces `fan` (increasing ids) closing
+// a convex cone with a region wedge under `wedge_below_deg` at one of its edges.
+std::optional<FanTet> fan_tet(const core::SurfaceNetwork& s, std::int32_t t, core::Label r,
+                              const std::array<std::int32_t, 3>& fan, double wedge_below_deg) {
+    // (t, x, y) with its normal out of r; z the third ring vertex.
+    const auto& t0 = s.faces[std::size_t(fan[0])];
+    int k = 0;
+    while (t0[std::size_t(k)] != t) ++k;
+    std::int32_t x = t0[std::size_t((k + 1) % 3)], y = t0[std::size_t((k + 2) % 3)];
+    if (s.region_in[std::size_t(fan[0])] != r) std::swap(x, y);
+    std::int32_t z = -1;
+    for (const std::int32_t f : {fan[1], fan[2]}) {
+        int ring = 0;  // the three faces close a cone around t: ring {x, y, z}
+        for (const auto u : s.faces[std::size_t(f)]) {
+            if (u == t) continue;
+            if (u != x && u != y) {
+                if (z >= 0 && z != u) return std::nullopt;
+                z = u;
+            }
+            ++ring;
+        }
+        if (ring != 2) return std::nullopt;
+    }
+    // Convex: z behind (t, x, y) seen from r.
+    if (z < 0 || !(core::tet_signed_volume(s.point(t), s.point(x), s.point(y), s.point(z)) < 0.0))
+        return std::nullopt;
+    double smallest = 360.0;
+    for (const std::int32_t u : {x, y, z}) {
+        std::array<std::int32_t, 2> pair{-1, -1};
+        int n = 0;
+        for (const std::int32_t f : fan)
+            for (const auto w : s.faces[std::size_t(f)])
+                if (w == u && n < 2) pair[std::size_t(n++)] = f;
+        if (n == 2) smallest = std::min(smallest, region_wedge_deg(s, r, t, u, pair[0], pair[1]));
+    }
+    if (!(smallest < wedge_below_deg)) return std::nullopt;
+    return FanTet{{t, y, x, z}, r};
+}
+
+// Every vertex with exactly three faces of a region (not the outside) whose cone there is
+// convex and has a region wedge under `wedge_below_deg` at one of its three edges, in
+// (vertex, region) order. `offsets`/`incident`: vertex_faces of s.
+std::vector<FanTet> fan_tets(const core::SurfaceNetwork& s,
+                             const std::vector<std::int32_t>& offsets,
+                             const std::vector<std::int32_t>& incident, double wedge_below_deg) {
+    std::vector<FanTet> fans;
+    std::vector<core::Label> regions;
+    for (std::size_t v = 0; v < s.vertex_count(); ++v) {
+        const auto b = std::size_t(offsets[v]), e = std::size_t(offsets[v + 1]);
+        regions.clear();
+        for (auto k = b; k < e; ++k)
+            for (const core::Label r :
+                 {s.region_in[std::size_t(incident[k])], s.region_out[std::size_t(incident[k])]})
+                if (r != 0) regions.push_back(r);
+        std::sort(regions.begin(), regions.end());
+        for (std::size_t i = 0; i < regions.size();) {
+            std::size_t j = i;
+            while (j < regions.size() && regions[j] == regions[i]) ++j;
+            if (j - i == 3) {
+                const core::Label r = regions[i];
+                std::array<std::int32_t, 3> fan{};
+                std::size_t n = 0;
+                for (auto k = b; k < e; ++k) {
+                    const auto f = std::size_t(incident[k]);
+                    if (s.region_in[f] == r || s.region_out[f] == r) fan[n++] = incident[k];
+                }
+                if (auto tet = fan_tet(s, static_cast<std::int32_t>(v), r, fan, wedge_below_deg))
+                    fans.push_back(*tet);
+            }
+            i = j;
+        }
+    }
+    return fans;
+}
+
+// Smallest dihedral angle of a fan's tet; 0 once it inverts (the cone is no longer convex).
+double fan_tet_angle(const core::SurfaceNetwork& s, const FanTet& fan) {
+    const Eigen::Vector3d a = s.point(fan.v[0]), b = s.point(fan.v[1]), c = s.point(fan.v[2]),
+                          d = s.point(fan.v[3]);
+    return core::tet_signed_volume(a, b, c, d) > 0.0 ? core::tet_min_dihedral_deg(a, b, c, d) : 0.0;
 }
 
 class Smoother {
@@ -294,14 +399,57 @@ public:
             verts.erase(std::unique(verts.begin(), verts.end()), verts.end());
             for (const std::int32_t v : verts) {
                 if (edge_wedge(k) >= target_deg) break;
-                if (kind_[std::size_t(v)] == Kind::Free)
-                    changes += raise_wedge_free(v, k, target_deg);
-                else if (kind_[std::size_t(v)] == Kind::Curve)
-                    changes += raise_wedge_curve(v, k, target_deg);
+                if (kind_[std::size_t(v)] != Kind::Fixed) changes += raise_wedge(v, k, target_deg);
             }
             if (edge_wedge(k) < target_deg) changes += raise_wedge_flip(k, target_deg);
         }
         return changes;
+    }
+
+    // Raises the tets of spike tips (ForcedTet): lists the convex three-face fans with a
+    // region wedge under `list_below_deg` (their tet is the only one reaching half that wedge
+    // there), kept for the tip passes (which move vertices, no flips).
+    void build_tips(double list_below_deg) {
+        fans_ = fan_tets(s_, offsets_, incident_, list_below_deg);
+        const std::size_t n = s_.vertex_count();
+        fan_offsets_.assign(n + 1, 0);
+        for (const FanTet& fan : fans_)
+            for (const auto v : fan.v) ++fan_offsets_[std::size_t(v) + 1];
+        for (std::size_t v = 0; v < n; ++v) fan_offsets_[v + 1] += fan_offsets_[v];
+        fan_list_.assign(std::size_t(fan_offsets_[n]), 0);
+        std::vector<std::int32_t> fill(fan_offsets_.begin(), fan_offsets_.end() - 1);
+        for (std::size_t i = 0; i < fans_.size(); ++i)
+            for (const auto v : fans_[i].v)
+                fan_list_[std::size_t(fill[std::size_t(v)]++)] = static_cast<std::int32_t>(i);
+    }
+
+    // Per listed fan under `target_deg`, in list order: each free or curve vertex of its tet
+    // (in id order) tries steps along its patch or curve (as the wedge pass) and keeps the one
+    // that raises the smallest tet angle of the fans it touches (capped at the target), then
+    // this fan's, with no face folding or dropping under min(its angle, kWedgeMinAngleDeg)
+    // and no region wedge dropping under min(its value, the guard, the raised tet angle). In
+    // a thin fin the tet (T, a, b, c) is a sliver whose small angles at a-c and b-c shrink as
+    // the far vertex c leaves the line ab: the moves bring c in (or a and b out). Returns the
+    // moves.
+    std::size_t tip_pass(double target_deg) {
+        std::size_t changes = 0;
+        for (std::size_t i = 0; i < fans_.size(); ++i) {
+            if (fan_tet_angle(s_, fans_[i]) >= target_deg) continue;
+            std::array<std::int32_t, 4> verts = fans_[i].v;
+            std::sort(verts.begin(), verts.end());
+            for (const std::int32_t v : verts) {
+                if (fan_tet_angle(s_, fans_[i]) >= target_deg) break;
+                if (kind_[std::size_t(v)] != Kind::Fixed) changes += raise_tip(v, i, target_deg);
+            }
+        }
+        return changes;
+    }
+
+    /// The smallest tet angle of the listed fans (degrees; 180 when there is none).
+    double min_forced_tet() const {
+        double smallest = 180.0;
+        for (const FanTet& fan : fans_) smallest = std::min(smallest, fan_tet_angle(s_, fan));
+        return smallest;
     }
 
     /// The smallest region wedge over all junction edges (degrees; 360 when there is none).
@@ -395,7 +543,8 @@ private:
         return touched > best_touched - 1e-9 && own > best_own + 1e-6;
     }
 
-    std::size_t raise_wedge_free(std::int32_t v, std::int64_t k, double target) {
+    // One wedge-pass move of free or curve vertex v for junction edge k.
+    std::size_t raise_wedge(std::int32_t v, std::int64_t k, double target) {
         star_normals(v, normals_);
         const double floor = std::min(star_quality(v, nullptr), kWedgeMinAngleDeg);
         double best_touched = star_wedge(v), best_own = edge_wedge(k);
@@ -407,7 +556,45 @@ private:
             best_touched = touched, best_own = own;
             return true;
         };
-        return patch_search(v, {0.05, 0.12, 0.2, 0.35, 0.5}, better) ? 1 : 0;
+        return search(v, better) ? 1 : 0;
+    }
+
+    // One tip-pass move of free or curve vertex v for listed fan `fan`.
+    std::size_t raise_tip(std::int32_t v, std::size_t fan, double target) {
+        star_normals(v, normals_);
+        const double floor = std::min(star_quality(v, nullptr), kWedgeMinAngleDeg);
+        const double wedge_before = star_wedge(v);
+        double best_touched = vertex_fan_angle(v), best_own = fan_tet_angle(s_, fans_[fan]);
+        const auto better = [&] {
+            const double q = star_quality(v, &normals_);
+            if (q <= 0.0 || q < floor) return false;
+            const double touched = vertex_fan_angle(v), own = fan_tet_angle(s_, fans_[fan]);
+            if (!wedge_better(touched, own, best_touched, best_own, target)) return false;
+            // The fan's wedges at its own edges are dihedral angles of its tet: a wedge may
+            // drop to the raised tet angle (no new bottleneck), not below it.
+            if (star_wedge(v) < std::min({wedge_before, guard_deg_, touched}) - 1e-9) return false;
+            best_touched = touched, best_own = own;
+            return true;
+        };
+        return search(v, better) ? 1 : 0;
+    }
+
+    // Smallest tet angle of the listed fans with v in their tet (180: none).
+    double vertex_fan_angle(std::int32_t v) const {
+        double smallest = 180.0;
+        for (auto k = fan_offsets_[std::size_t(v)]; k < fan_offsets_[std::size_t(v) + 1]; ++k)
+            smallest = std::min(smallest,
+                                fan_tet_angle(s_, fans_[std::size_t(fan_list_[std::size_t(k)])]));
+        return smallest;
+    }
+
+    // The direct search of the wedge and tip passes: along the patch for a free vertex, along
+    // the curve for a curve vertex.
+    template <class Better>
+    bool search(std::int32_t v, Better&& better) {
+        if (kind_[std::size_t(v)] == Kind::Free)
+            return patch_search(v, {0.05, 0.12, 0.2, 0.35, 0.5}, better);
+        return curve_search(v, {0.025, 0.06, 0.1, 0.15, 0.25}, better);
     }
 
     // Direct search for free vertex v (worst_pass, wedge pass): steps of `steps` times the
@@ -449,7 +636,11 @@ private:
         return true;
     }
 
-    std::size_t raise_wedge_curve(std::int32_t v, std::int64_t k, double target) {
+    // Direct search for curve vertex v: steps of `steps` times the gap between its curve
+    // neighbours, both ways along its curve, staying 15% of the gap from each; as
+    // patch_search, v ends at the best point (its arc length recorded) or stays (false).
+    template <class Better>
+    bool curve_search(std::int32_t v, std::initializer_list<double> steps, Better&& better) {
         const CurveSlot slot = slot_[std::size_t(v)];
         SurfaceCurve& curve = c_.curves[std::size_t(slot.curve)];
         const Polyline& pl = polylines_[std::size_t(slot.curve)];
@@ -459,31 +650,23 @@ private:
         const double s_prev = i == 0 ? curve.s[last - 1] - length : curve.s[i - 1];
         const double s_next = i == 0 ? curve.s[1] : curve.s[i + 1];
         const double gap = s_next - s_prev;
-        if (!(gap > 0.0)) return 0;
+        if (!(gap > 0.0)) return false;
         const Eigen::Vector3d P = s_.point(v);
-        star_normals(v, normals_);
-        const double floor = std::min(star_quality(v, nullptr), kWedgeMinAngleDeg);
-        double best_touched = star_wedge(v), best_own = edge_wedge(k);
         double best_s = curve.s[i];
         Eigen::Vector3d best_point = P;
         for (const double sign : {1.0, -1.0})
-            for (const double step : {0.025, 0.06, 0.1, 0.15, 0.25}) {
+            for (const double step : steps) {
                 const double s_new = curve.s[i] + sign * step * gap;
                 if (s_new <= s_prev + 0.15 * gap || s_new >= s_next - 0.15 * gap) continue;
                 const double w = length > 0.0 ? s_new - length * std::floor(s_new / length) : 0.0;
                 s_.point(v) = pl.at(w);
-                const double q = star_quality(v, &normals_);
-                if (q <= 0.0 || q < floor) continue;
-                const double touched = star_wedge(v), own = edge_wedge(k);
-                if (wedge_better(touched, own, best_touched, best_own, target))
-                    best_touched = touched, best_own = own, best_s = s_new,
-                    best_point = s_.point(v);
+                if (better()) best_s = s_new, best_point = s_.point(v);
             }
         s_.point(v) = best_point;
-        if (best_s == curve.s[i]) return 0;
+        if (best_s == curve.s[i]) return false;
         curve.s[i] = best_s;
         if (i == 0) curve.s[last] = best_s + length;
-        return 1;
+        return true;
     }
 
     // Flips an inner edge (two faces of one patch) of a face on junction edge k when that
@@ -577,18 +760,7 @@ private:
 
     // -------------------------------------------------------------------------------------
 
-    void build_incidence() {
-        const std::size_t n = s_.vertex_count();
-        offsets_.assign(n + 1, 0);
-        for (const auto& t : s_.faces)
-            for (const auto v : t) ++offsets_[std::size_t(v) + 1];
-        for (std::size_t v = 0; v < n; ++v) offsets_[v + 1] += offsets_[v];
-        incident_.assign(static_cast<std::size_t>(offsets_[n]), -1);
-        std::vector<std::int32_t> fill(offsets_.begin(), offsets_.end() - 1);
-        for (std::size_t f = 0; f < s_.face_count(); ++f)
-            for (const auto v : s_.faces[f])
-                incident_[std::size_t(fill[std::size_t(v)]++)] = static_cast<std::int32_t>(f);
-    }
+    void build_incidence() { vertex_faces(s_, offsets_, incident_); }
 
     double min_angle(const std::array<std::int32_t, 3>& t) const {
         return core::triangle_min_angle_deg(s_.point(t[0]), s_.point(t[1]), s_.point(t[2]));
@@ -724,6 +896,8 @@ private:
     std::unordered_map<std::int64_t, std::vector<std::int32_t>> junction_;  // edge -> its faces
     std::vector<std::int64_t> junction_keys_;  // sorted: the order of wedge_pass
     std::vector<std::uint8_t> jmask_;  // per face: bit i = edge (t[i], t[i+1]) is a junction edge
+    std::vector<FanTet> fans_;         // spike tips of the tip passes
+    std::vector<std::int32_t> fan_offsets_, fan_list_;  // CSR: vertex -> fans with it in their tet
     double cos_turn_ = 0.0, cos_flat_ = 1.0;
     static constexpr double kCosBadFlat = 0.8660254037844387;  // cos 30 degrees
     // Region wedges: no change may lower one under the guard (or lower one already under
@@ -747,6 +921,16 @@ std::vector<ThinWedge> thin_region_wedges(const core::SurfaceNetwork& surface, d
         if (w < below_deg) thin.push_back({0.5 * (surface.point(v0) + surface.point(v1)), w});
     }
     return thin;
+}
+
+std::vector<ForcedTet> forced_tets(const core::SurfaceNetwork& surface,
+                                   double fan_wedge_below_deg) {
+    std::vector<ForcedTet> tips;
+    std::vector<std::int32_t> offsets, incident;
+    vertex_faces(surface, offsets, incident);
+    for (const FanTet& fan : fan_tets(surface, offsets, incident, fan_wedge_below_deg))
+        tips.push_back({surface.point(fan.v[0]), fan.region, fan_tet_angle(surface, fan)});
+    return tips;
 }
 
 // Faces with a smallest angle under this get the direct search of worst_pass.
@@ -788,8 +972,22 @@ SmoothingReport smooth_surface(core::SurfaceNetwork& surface,
         }
         report.min_wedge_after_deg = smoother.min_wedge();
         ctx.add("remesh.wedge_changes", double(report.wedge_changes));
-        ctx.count("remesh.min_region_wedge_deg", report.min_wedge_after_deg);
     }
+    if (params.iterations > 0 && params.tip_target_deg > 0.0) {
+        smoother.build_tips(2.0 * params.tip_target_deg);
+        report.min_forced_tet_before_deg = smoother.min_forced_tet();
+        for (int pass = 0; pass < 4; ++pass) {
+            const std::size_t changes = smoother.tip_pass(params.tip_target_deg);
+            report.tip_changes += changes;
+            if (changes == 0) break;
+        }
+        report.min_forced_tet_after_deg = smoother.min_forced_tet();
+        ctx.add("remesh.tip_changes", double(report.tip_changes));
+        ctx.count("remesh.min_forced_tet_deg", report.min_forced_tet_after_deg);
+    }
+    // After the tip passes, which may lower a fan's wedge to its raised tet angle.
+    if (params.iterations > 0 && params.wedge_target_deg > 0.0)
+        ctx.count("remesh.min_region_wedge_deg", smoother.min_wedge());
     report.min_angle_after_deg = global_min_angle(surface);
     ctx.add("remesh.smoothing_moves", double(report.moves));
     ctx.add("remesh.edge_flips", double(report.flips));

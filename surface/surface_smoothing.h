@@ -40,6 +40,9 @@ struct SmoothingParams {
     /// edge) under this are raised by a last pass of moves and flips, and no move or flip may
     /// lower one under min(this, 20); 0 = off (no guard either).
     double wedge_target_deg = 20.0;
+    /// Forced tets (ForcedTet) whose smallest dihedral angle is under this are raised by a
+    /// last pass of moves (fans with a wedge under twice this count); 0 = off.
+    double tip_target_deg = 20.0;
 };
 
 struct SmoothingReport {
@@ -50,6 +53,9 @@ struct SmoothingReport {
     std::size_t wedge_changes = 0;      ///< moves + flips of the wedge passes
     double min_wedge_before_deg = 0.0;  ///< smallest region wedge before the wedge passes
     double min_wedge_after_deg = 0.0;   ///< and after (360 when there is no junction edge)
+    std::size_t tip_changes = 0;        ///< moves of the tip passes
+    double min_forced_tet_before_deg = 0.0;  ///< smallest ForcedTet angle before the tip passes
+    double min_forced_tet_after_deg = 0.0;   ///< and after (180 when there is none)
 };
 
 /// A junction edge (three or more faces) where a region's wedge, the interior dihedral angle
@@ -63,6 +69,25 @@ struct ThinWedge {
 /// Junction edges of `surface` with a region wedge under `below_deg`, in edge order.
 std::vector<ThinWedge> thin_region_wedges(const core::SurfaceNetwork& surface, double below_deg);
 
+/// A spike tip: a vertex T with exactly three faces (T, a, b), (T, b, c), (T, c, a) of one
+/// region R, whose cone there is convex and thin (a wedge of R at one of its edges T-x under
+/// `fan_wedge_below_deg`). A tet of R on T-x has a dihedral angle at T-x no larger than the
+/// share of the wedge it covers, so with a wedge under twice an angle m the only tet that
+/// reaches m there is (T, a, b, c): four surface nodes and three surface faces, which no
+/// volume operation can change. Its smallest dihedral angle lies at T-a or T-b (the wedges)
+/// or, in the flat sliver of a thin fin (T-c across a-b), at c-a and c-b: about the wedge at
+/// T-a times (|ca| / |Ta|) dist(T, ab) / dist(c, ab), and likewise for b: a vertex c far
+/// from the line ab closes them.
+struct ForcedTet {
+    Eigen::Vector3d tip;            ///< T
+    core::Label region = 0;         ///< R
+    double min_dihedral_deg = 0.0;  ///< of (T, a, b, c)
+};
+
+/// Spike tips of `surface` whose fan has a region wedge under `fan_wedge_below_deg` (in
+/// vertex order, then region). Cost O(m) for m faces.
+std::vector<ForcedTet> forced_tets(const core::SurfaceNetwork& surface, double fan_wedge_below_deg);
+
 /// Improves `surface` in place: per pass, each vertex in id order moves to the angle-based
 /// position (the mean of its ring neighbours' edges rotated onto the bisectors of their ring
 /// angles), projected back onto its patch (`patches[face_patch]`, local descent from its
@@ -73,7 +98,11 @@ std::vector<ThinWedge> thin_region_wedges(const core::SurfaceNetwork& surface, d
 /// minimum angle of the pair grows. Region wedges (ThinWedge) at junction edges: no move or
 /// flip may lower one under min(wedge_target_deg, 20) (or lower one already under it), and a
 /// last pass raises those under wedge_target_deg by moves along patches and curves and flips.
-/// Topology of curves and patches is kept; deterministic.
+/// Then the tip pass: each ForcedTet (fan wedge under 2 tip_target_deg) whose tet has a
+/// dihedral angle under tip_target_deg gets moves of its free and curve vertices that raise
+/// it (no other forced tet of the moved vertex may drop, no face under min(its angle, 22),
+/// a region wedge may drop only to the raised tet angle: the fan's wedges are angles of its
+/// tet). Topology of curves and patches is kept; deterministic.
 /// `constraints.vertex_face` is updated. Preconditions: sizes match the surface.
 SmoothingReport smooth_surface(core::SurfaceNetwork& surface,
                                const std::vector<const BackgroundPatch*>& patches,

@@ -243,3 +243,148 @@ TEST_CASE("smoothing keeps a thin region wedge at a junction curve open, on the 
     CHECK(smallest == Approx(w_off));
     CHECK(surface::thin_region_wedges(with, w_on - 0.01).empty());
 }
+
+namespace {
+
+// A thin blade: region 1 is the tetrahedron (T, A, B, C) with T at the origin, A and B in the
+// plane z = 0 at distance 4 and half angle `half_angle_deg` from the x axis, C = (4, 0, h):
+// thin wedges at T-A and T-B (13.8 degrees for 60 degrees and h = 0.85). Patches: bottom
+// (T, A, B), top (T, A, C) + (T, B, C) (one patch, a slight crease along T-C), back (A, B, C);
+// the six edges are curves. The output mesh gives T exactly three faces: (T, a, b) on the
+// bottom, (T, b, c) and (T, c, a) on the top, with a and b on the curves T-A and T-B at
+// distance 1 and c inside the top patch at x = `c_x`, far beyond the line a-b: the spike-tip
+// fan of issue 5.
+struct Blade {
+    core::SurfaceNetwork bg, s;
+    std::vector<std::int32_t> bg_patch, face_patch;
+    std::int32_t tip = 0;
+    std::vector<surface::SurfaceCurve> curves;
+};
+
+Blade make_blade(double half_angle_deg, double h, double c_x) {
+    Blade blade;
+    const double alpha = half_angle_deg * kPi / 180.0, length = 4.0;
+    const Eigen::Vector3d T(0.0, 0.0, 0.0),
+        A(length * std::cos(alpha), length * std::sin(alpha), 0.0),
+        B(length * std::cos(alpha), -length * std::sin(alpha), 0.0), C(length, 0.0, h);
+    const Eigen::Vector3d inside = (T + A + B + C) / 4.0;
+    const auto add = [&inside](core::SurfaceNetwork& s, std::vector<std::int32_t>& patch_of,
+                               std::int32_t a, std::int32_t b, std::int32_t c, std::int32_t patch) {
+        const Eigen::Vector3d n = (s.point(b) - s.point(a)).cross(s.point(c) - s.point(a));
+        const Eigen::Vector3d m = (s.point(a) + s.point(b) + s.point(c)) / 3.0;
+        if (n.dot(m - inside) >= 0.0)
+            s.add_face(a, b, c, 1, 0);
+        else
+            s.add_face(a, c, b, 1, 0);
+        patch_of.push_back(patch);
+    };
+    auto& bg = blade.bg;
+    const std::int32_t t0 = bg.add_vertex(T), a0 = bg.add_vertex(A), b0 = bg.add_vertex(B),
+                       c0 = bg.add_vertex(C);
+    add(bg, blade.bg_patch, t0, a0, b0, 0);
+    add(bg, blade.bg_patch, t0, a0, c0, 1);
+    add(bg, blade.bg_patch, t0, b0, c0, 1);
+    add(bg, blade.bg_patch, a0, b0, c0, 2);
+    // Output: the corners, a and b on the curves, c on the top patch (its plane on y = 0).
+    auto& s = blade.s;
+    const std::int32_t t = s.add_vertex(T), a_ = s.add_vertex(A), b_ = s.add_vertex(B),
+                       c_ = s.add_vertex(C);
+    const std::int32_t a = s.add_vertex(A.normalized()), b = s.add_vertex(B.normalized());
+    const Eigen::Vector3d n = (A - T).cross(C - T);
+    const std::int32_t c = s.add_vertex({c_x, 0.0, -n.x() * c_x / n.z()});
+    blade.tip = t;
+    auto& fp = blade.face_patch;
+    add(s, fp, t, a, b, 0);
+    add(s, fp, a, a_, b_, 0);
+    add(s, fp, a, b_, b, 0);
+    add(s, fp, t, a, c, 1);
+    add(s, fp, t, c, b, 1);
+    add(s, fp, a, a_, c, 1);
+    add(s, fp, a_, c_, c, 1);
+    add(s, fp, c_, b_, c, 1);
+    add(s, fp, b_, b, c, 1);
+    add(s, fp, a_, b_, c_, 2);
+    const auto curve = [&](std::vector<std::int32_t> bg_ends, std::vector<std::int32_t> vertices) {
+        surface::SurfaceCurve sc;
+        for (const auto v : bg_ends) sc.polyline.push_back(bg.point(v));
+        sc.vertices = vertices;
+        for (const auto v : vertices) sc.s.push_back((s.point(v) - sc.polyline[0]).norm());
+        blade.curves.push_back(sc);
+    };
+    curve({t0, a0}, {t, a, a_});
+    curve({t0, b0}, {t, b, b_});
+    curve({a0, b0}, {a_, b_});
+    curve({a0, c0}, {a_, c_});
+    curve({b0, c0}, {b_, c_});
+    return blade;
+}
+
+}  // namespace
+
+TEST_CASE("the tip pass raises the forced tet of a thin three-face cone", "[remesh][wedge]") {
+    // Wedges of 13.8 degrees at T-a and T-b; c four times as far from the line a-b as T is:
+    // the forced tet (T, a, b, c) is a sliver with 7.4 degrees at a-c and b-c (less after the
+    // angle-based smoothing). Moving c towards the mirror image of T across a-b (or a and b
+    // out) raises those towards the wedges.
+    std::vector<double> min_angle(2, 180.0);
+    auto run = [&min_angle](double tip_target, surface::SmoothingReport& report) {
+        Blade blade = make_blade(60.0, 0.85, 2.5);
+        std::vector<std::vector<std::int32_t>> patch_faces(3);
+        for (std::size_t f = 0; f < blade.bg.face_count(); ++f)
+            patch_faces[std::size_t(blade.bg_patch[f])].push_back(std::int32_t(f));
+        std::vector<surface::BackgroundPatch> patches;
+        for (auto& faces : patch_faces) patches.emplace_back(blade.bg, faces, false);
+        const std::vector<const surface::BackgroundPatch*> pointers{&patches[0], &patches[1],
+                                                                    &patches[2]};
+        surface::SurfaceConstraints cons;
+        cons.face_patch = blade.face_patch;
+        cons.vertex_face.assign(blade.s.vertex_count(), -1);
+        cons.curves = blade.curves;
+        // The tip at T, and one at C (three faces there too, less thin).
+        const auto at_tip = [&blade](const std::vector<surface::ForcedTet>& tips) {
+            const auto it = std::find_if(tips.begin(), tips.end(), [&](const auto& x) {
+                return x.tip == blade.s.point(blade.tip) && x.region == 1;
+            });
+            REQUIRE(it != tips.end());
+            return it->min_dihedral_deg;
+        };
+        const double before = at_tip(surface::forced_tets(blade.s, 20.0));
+        surface::SmoothingParams params;
+        params.tip_target_deg = tip_target;
+        core::StageContext ctx;
+        report = surface::smooth_surface(blade.s, pointers, cons, params, ctx);
+        for (std::size_t f = 0; f < blade.s.face_count(); ++f)
+            for (const auto v : blade.s.faces[f])
+                CHECK(
+                    pointers[std::size_t(cons.face_patch[f])]->project(blade.s.point(v)).distance <
+                    1e-9);
+        for (const auto& check : core::check_region_boundaries(blade.s)) {
+            CHECK(check.is_closed());
+            CHECK(check.is_oriented());
+        }
+        double& smallest = min_angle[tip_target > 0.0 ? 1 : 0];
+        for (const auto& t : blade.s.faces)
+            smallest = std::min(
+                smallest, core::triangle_min_angle_deg(blade.s.point(t[0]), blade.s.point(t[1]),
+                                                       blade.s.point(t[2])));
+        // The tip does not move (a corner); its fan keeps its three faces.
+        CHECK(blade.s.point(blade.tip) == Eigen::Vector3d::Zero());
+        INFO("before " << before);
+        CHECK(before < 10.0);
+        return at_tip(surface::forced_tets(blade.s, 20.0));
+    };
+    surface::SmoothingReport off, on;
+    const double angle_off = run(0.0, off),
+                 angle_on = run(surface::SmoothingParams().tip_target_deg, on);
+    INFO("forced tet without the tip pass " << angle_off << ", with " << angle_on << " ("
+                                            << on.tip_changes << " moves)");
+    CHECK(angle_off < 10.0);
+    CHECK(angle_on >= 10.0);
+    CHECK(on.tip_changes > 0);
+    // The report: the smallest of the two fans (T and C), before (as without) and after.
+    CHECK(on.min_forced_tet_before_deg <= angle_off + 1e-9);
+    CHECK(on.min_forced_tet_after_deg <= angle_on + 1e-9);
+    CHECK(on.min_forced_tet_after_deg > on.min_forced_tet_before_deg);
+    // No face drops under min(its angle, 22 degrees).
+    CHECK(min_angle[1] >= std::min(min_angle[0], 22.0) - 1e-9);
+}
