@@ -352,6 +352,7 @@ std::string run_recipe(const Recipe& recipe, const RunOptions& options) {
         std::string heading(1, '[');
         heading.append(std::to_string(i + 1)).append("/").append(std::to_string(last + 1)).append("] ");
         info(heading + stage.name);
+        std::vector<core::TetFigures>().swap(figures);  // the last stage's: not held while this runs
         const auto t0 = std::chrono::steady_clock::now();
         io::PointArrays point_arrays;  // extra per-point figures of the checkpoint
         try {
