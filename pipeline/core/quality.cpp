@@ -59,12 +59,16 @@ double tet_skewness(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Ei
     return std::clamp((v_opt - volume) / v_opt, 0.0, 1.0);
 }
 
-double tet_min_dihedral_deg(const Eigen::Vector3d& a, const Eigen::Vector3d& b,
-                            const Eigen::Vector3d& c, const Eigen::Vector3d& d) {
-    // Face normals from a consistently oriented boundary, face i opposite vertex i: all outward
-    // when the signed volume is positive, all inward when negative. Deciding each face's side
-    // from the opposite vertex instead fails for flat tetrahedra (that vertex lies in the
-    // face's plane) and could report 180 degrees where the true answer is 0.
+namespace {
+
+// The six interior dihedral angles of a tetrahedron in degrees, one per pair of faces (0,1)
+// (0,2) (0,3) (1,2) (1,3) (2,3), face i opposite vertex i; false (angles untouched) when a face
+// has zero area. Face normals come from a consistently oriented boundary: all outward when
+// the signed volume is positive, all inward when negative. Deciding each face's side from the
+// opposite vertex instead fails for flat tetrahedra (that vertex lies in the face's plane)
+// and could report 180 degrees where the true answer is 0.
+bool dihedral_angles_deg(const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+                         const Eigen::Vector3d& c, const Eigen::Vector3d& d, double (&angles)[6]) {
     const std::array<std::array<const Eigen::Vector3d*, 3>, 4> faces{{
         {&b, &c, &d}, {&a, &d, &c}, {&a, &b, &d}, {&a, &c, &b}}};
     std::array<Eigen::Vector3d, 4> n;
@@ -72,18 +76,26 @@ double tet_min_dihedral_deg(const Eigen::Vector3d& a, const Eigen::Vector3d& b,
         const auto& f = faces[static_cast<std::size_t>(i)];
         const Eigen::Vector3d normal = (*f[1] - *f[0]).cross(*f[2] - *f[0]);
         const double length = normal.norm();
-        if (length == 0.0) return 0.0;
+        if (length == 0.0) return false;
         n[static_cast<std::size_t>(i)] = normal / length;
     }
-    double smallest = 180.0;
-    for (int i = 0; i < 4; ++i) {
+    int k = 0;
+    for (int i = 0; i < 4; ++i)
         for (int j = i + 1; j < 4; ++j) {
-            // Interior dihedral angle at the edge shared by faces i and j.
-            const double angle = std::numbers::pi - std::acos(std::clamp(n[i].dot(n[j]), -1.0, 1.0));
-            smallest = std::min(smallest, angle * 180.0 / std::numbers::pi);
+            const double angle =
+                std::numbers::pi - std::acos(std::clamp(n[i].dot(n[j]), -1.0, 1.0));
+            angles[k++] = angle * 180.0 / std::numbers::pi;
         }
-    }
-    return smallest;
+    return true;
+}
+
+}  // namespace
+
+double tet_min_dihedral_deg(const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+                            const Eigen::Vector3d& c, const Eigen::Vector3d& d) {
+    double angles[6];
+    if (!dihedral_angles_deg(a, b, c, d, angles)) return 0.0;
+    return *std::min_element(std::begin(angles), std::end(angles));
 }
 
 double TetFigures::min_dihedral_deg() const {
@@ -97,25 +109,10 @@ double TetFigures::max_dihedral_deg() const {
 TetFigures tet_figures(const Eigen::Vector3d& a, const Eigen::Vector3d& b,
                        const Eigen::Vector3d& c, const Eigen::Vector3d& d) {
     TetFigures f;
-    // The faces and angles as tet_min_dihedral_deg computes them.
-    const std::array<std::array<const Eigen::Vector3d*, 3>, 4> faces{{
-        {&b, &c, &d}, {&a, &d, &c}, {&a, &b, &d}, {&a, &c, &b}}};
-    std::array<Eigen::Vector3d, 4> n;
-    for (int i = 0; i < 4; ++i) {
-        const auto& g = faces[static_cast<std::size_t>(i)];
-        const Eigen::Vector3d normal = (*g[1] - *g[0]).cross(*g[2] - *g[0]);
-        const double length = normal.norm();
-        if (length == 0.0) return f;
-        n[static_cast<std::size_t>(i)] = normal / length;
-    }
+    double angles[6];
+    if (!dihedral_angles_deg(a, b, c, d, angles)) return f;
     f.skewness = tet_skewness(a, b, c, d);
-    int k = 0;
-    for (int i = 0; i < 4; ++i)
-        for (int j = i + 1; j < 4; ++j) {
-            const double angle =
-                std::numbers::pi - std::acos(std::clamp(n[i].dot(n[j]), -1.0, 1.0));
-            f.dihedral_deg[k++] = static_cast<float>(angle * 180.0 / std::numbers::pi);
-        }
+    for (int k = 0; k < 6; ++k) f.dihedral_deg[k] = static_cast<float>(angles[k]);
     return f;
 }
 
