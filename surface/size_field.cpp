@@ -27,21 +27,6 @@ core::AdtBox bounding_box(const core::SurfaceNetwork& s) {
     return box.enlarged(1e-6 + 1e-9 * (box.hi - box.lo).norm());
 }
 
-// Vertex -> incident faces (CSR).
-void vertex_faces(const core::SurfaceNetwork& s, std::vector<std::int32_t>& offsets,
-                  std::vector<std::int32_t>& faces) {
-    const std::size_t n = s.vertex_count();
-    offsets.assign(n + 1, 0);
-    for (const auto& t : s.faces)
-        for (const auto v : t) ++offsets[std::size_t(v) + 1];
-    for (std::size_t v = 0; v < n; ++v) offsets[v + 1] += offsets[v];
-    faces.assign(std::size_t(offsets[n]), -1);
-    std::vector<std::int32_t> fill(offsets.begin(), offsets.end() - 1);
-    for (std::size_t f = 0; f < s.face_count(); ++f)
-        for (const auto v : s.faces[f])
-            faces[std::size_t(fill[std::size_t(v)]++)] = static_cast<std::int32_t>(f);
-}
-
 // Ray parameter t of the hit of ray (o, d) with triangle (a, b, c), or infinity
 // (Moeller-Trumbore; a measurement, not a topological decision).
 double ray_triangle(const Eigen::Vector3d& o, const Eigen::Vector3d& d, const Eigen::Vector3d& a,
@@ -132,7 +117,7 @@ SheetDistances sheet_distances(const core::SurfaceNetwork& s,
     }
     tree.compact();
     std::vector<std::int32_t> offsets, incident;
-    vertex_faces(s, offsets, incident);
+    core::vertex_faces(s, offsets, incident);
 
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 1024), [&](const auto& range) {
         std::vector<std::int32_t> found;

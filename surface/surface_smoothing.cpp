@@ -111,21 +111,6 @@ struct FanTet {
     core::Label region = 0;
 };
 
-// Faces around each vertex as CSR (`offsets` per vertex + 1, `incident` in face order).
-void vertex_faces(const core::SurfaceNetwork& s, std::vector<std::int32_t>& offsets,
-                  std::vector<std::int32_t>& incident) {
-    const std::size_t n = s.vertex_count();
-    offsets.assign(n + 1, 0);
-    for (const auto& t : s.faces)
-        for (const auto v : t) ++offsets[std::size_t(v) + 1];
-    for (std::size_t v = 0; v < n; ++v) offsets[v + 1] += offsets[v];
-    incident.assign(static_cast<std::size_t>(offsets[n]), -1);
-    std::vector<std::int32_t> fill(offsets.begin(), offsets.end() - 1);
-    for (std::size_t f = 0; f < s.face_count(); ++f)
-        for (const auto v : s.faces[f])
-            incident[std::size_t(fill[std::size_t(v)]++)] = static_cast<std::int32_t>(f);
-}
-
 // The fan of region r at t when it has exactly the three faces `fan` (increasing ids) closing
 // a convex cone with a region wedge under `wedge_below_deg` at one of its edges.
 std::optional<FanTet> fan_tet(const core::SurfaceNetwork& s, std::int32_t t, core::Label r,
@@ -760,7 +745,7 @@ private:
 
     // -------------------------------------------------------------------------------------
 
-    void build_incidence() { vertex_faces(s_, offsets_, incident_); }
+    void build_incidence() { core::vertex_faces(s_, offsets_, incident_); }
 
     double min_angle(const std::array<std::int32_t, 3>& t) const {
         return core::triangle_min_angle_deg(s_.point(t[0]), s_.point(t[1]), s_.point(t[2]));
@@ -927,7 +912,7 @@ std::vector<ForcedTet> forced_tets(const core::SurfaceNetwork& surface,
                                    double fan_wedge_below_deg) {
     std::vector<ForcedTet> tips;
     std::vector<std::int32_t> offsets, incident;
-    vertex_faces(surface, offsets, incident);
+    core::vertex_faces(surface, offsets, incident);
     for (const FanTet& fan : fan_tets(surface, offsets, incident, fan_wedge_below_deg))
         tips.push_back({surface.point(fan.v[0]), fan.region, fan_tet_angle(surface, fan)});
     return tips;

@@ -7,6 +7,20 @@
 
 namespace frontmesh::core {
 
+void vertex_faces(const SurfaceNetwork& surface, std::vector<std::int32_t>& offsets,
+                  std::vector<std::int32_t>& faces) {
+    const std::size_t n = surface.vertex_count();
+    offsets.assign(n + 1, 0);
+    for (const auto& t : surface.faces)
+        for (const auto v : t) ++offsets[std::size_t(v) + 1];
+    for (std::size_t v = 0; v < n; ++v) offsets[v + 1] += offsets[v];
+    faces.assign(std::size_t(offsets[n]), -1);
+    std::vector<std::int32_t> fill(offsets.begin(), offsets.end() - 1);
+    for (std::size_t f = 0; f < surface.face_count(); ++f)
+        for (const auto v : surface.faces[f])
+            faces[std::size_t(fill[std::size_t(v)]++)] = static_cast<std::int32_t>(f);
+}
+
 std::vector<Label> region_labels(const SurfaceNetwork& surface) {
     std::vector<Label> labels;
     labels.reserve(surface.face_count() * 2);

@@ -45,6 +45,11 @@ struct SurfaceNetwork {
     }
 };
 
+/// The faces around every vertex as CSR: the faces of vertex v are
+/// faces[offsets[v] .. offsets[v + 1]), in increasing face id. Cost O(faces).
+void vertex_faces(const SurfaceNetwork& surface, std::vector<std::int32_t>& offsets,
+                  std::vector<std::int32_t>& faces);
+
 /// Sorted list of the labels present (region_in and region_out), without 0.
 std::vector<Label> region_labels(const SurfaceNetwork& surface);
 
