@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
+#include <emmintrin.h>
 #include <string>
 #include <utility>
 
@@ -16,50 +18,6 @@ constexpr double infinity = std::numeric_limits<double>::infinity();
 // Key dimension: an item's key is the low corner of its box (the point itself for points).
 constexpr int K = 3;
 
-// A node's region of key space, with the node, as insertion walks it (queries prune with the
-// nodes' stored subtree bounds instead). Keys are clamped to the domain only to choose a
-// branch, so a side of the region still on the domain boundary is stored as -inf / +inf; the
-// split value is rebuilt from the domain.
-struct Frame {
-    std::int32_t node;
-    std::uint32_t k;  // key coordinate the node splits, 0 .. K - 1
-    double lo[K];
-    double hi[K];
-};
-
-Frame root_frame(std::int32_t root) {
-    Frame f;
-    f.node = root;
-    f.k = 0;
-    for (int k = 0; k < K; ++k) {
-        f.lo[k] = -infinity;
-        f.hi[k] = infinity;
-    }
-    return f;
-}
-
-// Bisection value of the node's region in coordinate f.k. 0.5 lo + 0.5 hi cannot overflow
-// and lies in [lo, hi].
-double split_value(const Frame& f, const AdtBox& domain) {
-    const int a = static_cast<int>(f.k);
-    const double lo = std::max(f.lo[f.k], domain.lo[a]);
-    const double hi = std::min(f.hi[f.k], domain.hi[a]);
-    return 0.5 * lo + 0.5 * hi;
-}
-
-// Turns frame `f` of a node into the frame of its child on `side` (0: clamped key < split,
-// 1: clamped key >= split). A split on the domain boundary (zero extent or exhausted
-// precision) bounds nothing.
-void descend(Frame& f, int side, double split, std::int32_t child, const AdtBox& domain) {
-    const int a = static_cast<int>(f.k);
-    if (side == 0)
-        f.hi[f.k] = split < domain.hi[a] ? split : infinity;
-    else
-        f.lo[f.k] = split > domain.lo[a] ? split : -infinity;
-    f.node = child;
-    f.k = (f.k + 1) % K;
-}
-
 // squared_distance of a stored key (lo = key[0..2], hi = key[3..5]) to p; the same value.
 inline double key_distance2(const double* key, const Eigen::Vector3d& p) {
     double d2 = 0.0;
@@ -70,35 +28,81 @@ inline double key_distance2(const double* key, const Eigen::Vector3d& p) {
     return d2;
 }
 
-// The largest float <= x and the smallest float >= x (infinite beyond the float range), so a
-// float box built from them contains the double box it stands for.
-float float_below(double x) {
-    constexpr double max_float = std::numeric_limits<float>::max();
-    if (x > max_float) return std::numeric_limits<float>::max();
-    if (!(x >= -max_float)) return -std::numeric_limits<float>::infinity();
-    float f = static_cast<float>(x);
-    if (static_cast<double>(f) > x) f = std::nextafter(f, -std::numeric_limits<float>::infinity());
-    return f;
-}
-float float_above(double x) {
-    constexpr double max_float = std::numeric_limits<float>::max();
-    if (x < -max_float) return -std::numeric_limits<float>::max();
-    if (!(x <= max_float)) return std::numeric_limits<float>::infinity();
-    float f = static_cast<float>(x);
-    if (static_cast<double>(f) < x) f = std::nextafter(f, std::numeric_limits<float>::infinity());
+// The float next to the finite float f towards -infinity (down) or +infinity (up), as
+// std::nextafter gives it, from its bits: the libm call was a tenth of an insertion.
+inline float float_step(float f, bool up) {
+    if (f == 0.0f) return up ? std::numeric_limits<float>::denorm_min()
+                             : -std::numeric_limits<float>::denorm_min();
+    std::uint32_t bits;
+    std::memcpy(&bits, &f, sizeof bits);
+    // Away from zero the magnitude grows (bits + 1), towards zero it shrinks (bits - 1).
+    bits += ((f > 0.0f) == up) ? 1u : static_cast<std::uint32_t>(-1);
+    std::memcpy(&f, &bits, sizeof f);
     return f;
 }
 
+// The largest float <= x and the smallest float >= x (infinite beyond the float range), so a
+// float box built from them contains the double box it stands for.
+inline float float_below(double x) {
+    constexpr double max_float = std::numeric_limits<float>::max();
+    if (x > max_float) return std::numeric_limits<float>::max();
+    if (!(x >= -max_float)) return -std::numeric_limits<float>::infinity();
+    const float f = static_cast<float>(x);
+    return static_cast<double>(f) > x ? float_step(f, false) : f;
+}
+inline float float_above(double x) {
+    constexpr double max_float = std::numeric_limits<float>::max();
+    if (x < -max_float) return -std::numeric_limits<float>::max();
+    if (!(x <= max_float)) return std::numeric_limits<float>::infinity();
+    const float f = static_cast<float>(x);
+    return static_cast<double>(f) < x ? float_step(f, true) : f;
+}
+
+// The stored bounds of an item box: lo rounded down, -(hi rounded up), as Node::bound.
+void set_bound(float* bound, const double* lo, const double* hi) {
+    for (int a = 0; a < 3; ++a) {
+        bound[a] = float_below(lo[a]);
+        bound[a + 3] = -float_above(hi[a]);
+    }
+}
+
+// bound := min(bound, item) elementwise (the union of the two boxes); stored only when it
+// grows, which leaves fewer dirty cache lines on the insertion path. The two 4-float halves
+// overlap in elements 2 and 3, on which they agree.
+inline void widen_bound(float* bound, const float* item) {
+    const __m128 a = _mm_loadu_ps(bound), b = _mm_loadu_ps(bound + 2);
+    const __m128 ia = _mm_loadu_ps(item), ib = _mm_loadu_ps(item + 2);
+    if (_mm_movemask_ps(_mm_or_ps(_mm_cmplt_ps(ia, a), _mm_cmplt_ps(ib, b))) == 0) return;
+    _mm_storeu_ps(bound + 2, _mm_min_ps(b, ib));
+    _mm_storeu_ps(bound, _mm_min_ps(a, ia));
+}
+
+// A box query in the form of Node::bound: the bounds (lo, -hi) meet the closed query box when
+// lo <= query hi and -hi <= -query lo on every axis, i.e. (lo x, y, z, -hi x) <= q0 and
+// (lo z, -hi x, y, z) <= q1 elementwise.
+struct BoxTest {
+    __m128 q0, q1;
+    BoxTest(const float* qlo, const float* qhi)
+        : q0(_mm_setr_ps(qhi[0], qhi[1], qhi[2], -qlo[0])),
+          q1(_mm_setr_ps(qhi[2], -qlo[0], -qlo[1], -qlo[2])) {}
+    bool meets(const float* bound) const {
+        const __m128 a = _mm_cmple_ps(_mm_loadu_ps(bound), q0);
+        const __m128 b = _mm_cmple_ps(_mm_loadu_ps(bound + 2), q1);
+        return _mm_movemask_ps(_mm_and_ps(a, b)) == 0xF;
+    }
+};
+
 // Lower bound of squared_distance(item box, p) over the items of a subtree, from its stored
 // bounds. The arithmetic mirrors key_distance2 term by term (the bounds enclose every item
-// box, max is exact and rounding is monotone), so the bound never exceeds the computed
-// distance of an item below and pruning with it is exact.
+// box, max is exact and rounding is monotone; p - hi is computed as p + (-hi), the same
+// double), so the bound never exceeds the computed distance of an item below and pruning
+// with it is exact.
 template <class Node>
 double bound_distance2(const Node& n, const Eigen::Vector3d& p) {
     double d2 = 0.0;
     for (int a = 0; a < 3; ++a) {
-        const double d = std::max(std::max(static_cast<double>(n.bound_lo[a]) - p[a],
-                                           p[a] - static_cast<double>(n.bound_hi[a])),
+        const double d = std::max(std::max(static_cast<double>(n.bound[a]) - p[a],
+                                           p[a] + static_cast<double>(n.bound[a + 3])),
                                   0.0);
         d2 += d * d;
     }
@@ -106,28 +110,38 @@ double bound_distance2(const Node& n, const Eigen::Vector3d& p) {
 }
 
 // Depth-first walk over the subtrees whose stored bounds `meets` accepts; `visit(node)` runs
-// on the node of every such subtree. The walk goes on into the first child in place and
-// leaves the second on a per-thread stack (at most one entry per level), so concurrent const
-// queries share nothing and a query allocates only while the stack outgrows its past depth.
+// on the node of every such subtree, in pre-order (node, first child's subtree, second
+// child's subtree), which pruning never reorders. The walk goes on into the first child in
+// place and leaves the second on a per-thread stack (at most one entry per level), so
+// concurrent const queries share nothing and a query allocates only while the stack
+// outgrows its past depth.
 template <class Nodes, class Meets, class Visit>
 void bounded_walk(const Nodes& nodes, std::int32_t root, Meets&& meets, Visit&& visit) {
     if (root < 0 || !meets(nodes[static_cast<std::size_t>(root)])) return;
-    thread_local std::vector<std::int32_t> stack;
-    stack.clear();
+    thread_local std::vector<std::int32_t> stack(64);
+    std::int32_t* top = stack.data();  // next free entry
+    std::int32_t* end = top + stack.size();
     std::int32_t node = root;
     while (true) {
         const auto& n = nodes[static_cast<std::size_t>(node)];
         visit(n);
         const std::int32_t c0 = n.child[0];
         const std::int32_t c1 = n.child[1];
-        if (c1 >= 0 && meets(nodes[static_cast<std::size_t>(c1)])) stack.push_back(c1);
+        if (c1 >= 0 && meets(nodes[static_cast<std::size_t>(c1)])) {
+            if (top == end) {  // deeper than ever before on this thread
+                const std::size_t used = static_cast<std::size_t>(top - stack.data());
+                stack.resize(2 * stack.size());
+                top = stack.data() + used;
+                end = stack.data() + stack.size();
+            }
+            *top++ = c1;
+        }
         if (c0 >= 0 && meets(nodes[static_cast<std::size_t>(c0)])) {
             node = c0;
             continue;
         }
-        if (stack.empty()) return;
-        node = stack.back();
-        stack.pop_back();
+        if (top == stack.data()) return;
+        node = *--top;
     }
 }
 
@@ -172,9 +186,8 @@ void Adt::insert(std::int32_t id, const AdtBox& box) {
     for (int a = 0; a < 3; ++a) {
         n.key[a] = box.lo[a];
         n.key[a + 3] = box.hi[a];
-        n.bound_lo[a] = float_below(box.lo[a]);
-        n.bound_hi[a] = float_above(box.hi[a]);
     }
+    set_bound(n.bound, n.key, n.key + 3);
     n.id = id;
     n.parent = -1;
     n.child[0] = n.child[1] = -1;
@@ -186,35 +199,40 @@ void Adt::insert(std::int32_t id, const AdtBox& box) {
     insert_key(node);
 }
 
-// Bonet & Peraire: descend from the root bisecting the region in key coordinate depth mod K
-// and hang the node at the first empty child. Keys outside the domain are clamped onto it.
-// Every node on the way gets its subtree bounds widened to the new item's.
+// Bonet & Peraire: descend from the root bisecting the node's region of key space in key
+// coordinate depth mod K and hang the node at the first empty child. Keys outside the domain
+// are clamped onto it to choose a branch. The region starts as the domain and each level
+// halves it at split = 0.5 lo + 0.5 hi, which lies in [lo, hi]. Every node on the way gets
+// its subtree bounds widened to the new item's.
 void Adt::insert_key(std::int32_t node) {
     if (root_ < 0) {
         root_ = node;
         return;
     }
     const Node& item = nodes_[static_cast<std::size_t>(node)];
-    const float item_lo[3] = {item.bound_lo[0], item.bound_lo[1], item.bound_lo[2]};
-    const float item_hi[3] = {item.bound_hi[0], item.bound_hi[1], item.bound_hi[2]};
-    double key[K];
-    for (int k = 0; k < K; ++k)
+    float item_bound[6];
+    std::copy(item.bound, item.bound + 6, item_bound);
+    double key[K], lo[K], hi[K];
+    for (int k = 0; k < K; ++k) {
         key[k] = std::clamp(item.key[k], domain_.lo[k], domain_.hi[k]);
-    Frame f = root_frame(root_);
+        lo[k] = domain_.lo[k];
+        hi[k] = domain_.hi[k];
+    }
+    std::int32_t at = root_;
+    int k = 0;
     while (true) {
-        const double split = split_value(f, domain_);
-        const int side = key[f.k] < split ? 0 : 1;
-        Node& parent = nodes_[static_cast<std::size_t>(f.node)];
-        for (int a = 0; a < 3; ++a) {  // written only when they grow: fewer dirty lines
-            if (item_lo[a] < parent.bound_lo[a]) parent.bound_lo[a] = item_lo[a];
-            if (item_hi[a] > parent.bound_hi[a]) parent.bound_hi[a] = item_hi[a];
-        }
+        const double split = 0.5 * lo[k] + 0.5 * hi[k];
+        const int side = key[k] < split ? 0 : 1;
+        Node& parent = nodes_[static_cast<std::size_t>(at)];
+        widen_bound(parent.bound, item_bound);
         if (parent.child[side] < 0) {
             parent.child[side] = node;
-            nodes_[static_cast<std::size_t>(node)].parent = f.node;
+            nodes_[static_cast<std::size_t>(node)].parent = at;
             return;
         }
-        descend(f, side, split, parent.child[side], domain_);
+        (side == 0 ? hi[k] : lo[k]) = split;
+        at = parent.child[side];
+        if (++k == K) k = 0;
     }
 }
 
@@ -310,32 +328,37 @@ void Adt::compact() {
     // Exact subtree bounds: in pre-order every child comes after its parent.
     for (std::size_t i = nodes_.size(); i-- > 0;) {
         Node& n = nodes_[i];
-        for (int a = 0; a < 3; ++a) {
-            n.bound_lo[a] = float_below(n.key[a]);
-            n.bound_hi[a] = float_above(n.key[a + 3]);
-        }
-        for (const std::int32_t child : n.child) {
-            if (child < 0) continue;
-            const Node& c = nodes_[static_cast<std::size_t>(child)];
-            for (int a = 0; a < 3; ++a) {
-                n.bound_lo[a] = std::min(n.bound_lo[a], c.bound_lo[a]);
-                n.bound_hi[a] = std::max(n.bound_hi[a], c.bound_hi[a]);
-            }
-        }
+        set_bound(n.bound, n.key, n.key + 3);
+        for (const std::int32_t child : n.child)
+            if (child >= 0) widen_bound(n.bound, nodes_[static_cast<std::size_t>(child)].bound);
     }
 }
 
 void Adt::collect_box(const AdtBox& query, std::vector<std::int32_t>& out_ids) const {
     // A subtree is skipped when its bounds miss the query; the items of the rest are tested.
-    auto meets = [&](const Node& n) {
-        return n.bound_lo[0] <= query.hi[0] && n.bound_lo[1] <= query.hi[1] &&
-               n.bound_lo[2] <= query.hi[2] && n.bound_hi[0] >= query.lo[0] &&
-               n.bound_hi[1] >= query.lo[1] && n.bound_hi[2] >= query.lo[2];
-    };
+    // The bounds are floats: compared with the query rounded outward to floats, a subtree is
+    // skipped only when its bounds miss the exact query too (visiting more never changes the
+    // result, whose order is the fixed pre-order of the tree).
+    float qlo[3], qhi[3];
+    for (int a = 0; a < 3; ++a) {
+        qlo[a] = float_below(query.lo[a]);
+        qhi[a] = float_above(query.hi[a]);
+    }
+    const BoxTest test(qlo, qhi);
+    auto meets = [&](const Node& n) { return test.meets(n.bound); };
+    // The item's exact box (key) against the query, in doubles, two axes at a time:
+    // (lo x, lo y) <= (hi x, hi y) of the query, (lo z, query lo x) <= (query hi z, hi x),
+    // (query lo y, query lo z) <= (hi y, hi z).
+    const __m128d qhi01 = _mm_loadu_pd(query.hi.data());
+    const __m128d qhi2 = _mm_set_sd(query.hi[2]);
+    const __m128d qlo0 = _mm_set1_pd(query.lo[0]);
+    const __m128d qlo12 = _mm_loadu_pd(query.lo.data() + 1);
     auto visit = [&](const Node& n) {
-        if (n.key[0] <= query.hi[0] && n.key[1] <= query.hi[1] && n.key[2] <= query.hi[2] &&
-            n.key[3] >= query.lo[0] && n.key[4] >= query.lo[1] && n.key[5] >= query.lo[2])
-            out_ids.push_back(n.id);
+        const __m128d k23 = _mm_loadu_pd(n.key + 2);
+        const __m128d m0 = _mm_cmple_pd(_mm_loadu_pd(n.key), qhi01);
+        const __m128d m1 = _mm_cmple_pd(_mm_move_sd(qlo0, k23), _mm_move_sd(k23, qhi2));
+        const __m128d m2 = _mm_cmple_pd(qlo12, _mm_loadu_pd(n.key + 4));
+        if (_mm_movemask_pd(_mm_and_pd(_mm_and_pd(m0, m1), m2)) == 3) out_ids.push_back(n.id);
     };
     bounded_walk(nodes_, root_, meets, visit);
 }

@@ -191,15 +191,16 @@ public:
     std::int32_t max_depth() const;
 
 private:
-    // 88 bytes. key = (lo, hi) of the item, lo the key insertion descends by; bound_lo/bound_hi
-    // enclose the boxes of every item in the node's subtree (the node's own included), rounded
-    // outward to float: widened on insert, left as they are on remove (still enclosing), exact
-    // after compact(); queries skip a subtree whose bounds miss them. parent -1 at the root;
-    // child[0] doubles as the free-list link of a free node (id == -1).
+    // 88 bytes. key = (lo, hi) of the item, lo the key insertion descends by; `bound` encloses
+    // the boxes of every item in the node's subtree (the node's own included), rounded outward
+    // to float and stored as (lo x, y, z, -hi x, y, z), so that widening is one elementwise
+    // min and a box test one elementwise <= (SSE, two overlapping 4-float loads): widened on
+    // insert, left as it is on remove (still enclosing), exact after compact(); queries skip a
+    // subtree whose bounds miss them. parent -1 at the root; child[0] doubles as the free-list
+    // link of a free node (id == -1).
     struct Node {
         double key[6];
-        float bound_lo[3];
-        float bound_hi[3];
+        float bound[6];
         std::int32_t id;
         std::int32_t parent;
         std::int32_t child[2];
