@@ -280,14 +280,6 @@ private:
     void gather_faces(const core::AdtBox& box, std::vector<std::int32_t>& out) const {
         face_adt_.query_box(box, out, core::AdtOrder::walk);
     }
-    /// False when the box of triangle t misses the box [lo, hi] (exact comparisons).
-    bool box_meets_face(const double* lo, const double* hi, const Tri& t) const {
-        for (int k = 0; k < 3; ++k) {
-            const double a = p(t[0])[k], b = p(t[1])[k], c = p(t[2])[k];
-            if (std::max({a, b, c}) < lo[k] || std::min({a, b, c}) > hi[k]) return false;
-        }
-        return true;
-    }
 
     // ---- front faces ----------------------------------------------------------------------
     std::int32_t add_face(std::int32_t a, std::int32_t b, std::int32_t c) {
@@ -705,7 +697,7 @@ private:
 
     // ---- §3.1.3 n-th level front setup ----------------------------------------------------
     void setup_level();
-    bool is_visible(std::int32_t j, std::int32_t i, const std::vector<std::int32_t>& faces) const;
+    bool is_visible(std::int32_t j, std::int32_t i);
 
     // ---- §3.1.4 / §3.1.5 -------------------------------------------------------------------
     bool is_active(std::int32_t v) const { return setup_stamp_[v] == front_no_; }
@@ -761,20 +753,16 @@ void RegionMesher::init_front(const core::SurfaceNetwork& s) {
     remesh_budget_ = 1000 + 2 * static_cast<std::int64_t>(faces.size());
 }
 
-bool RegionMesher::is_visible(std::int32_t j, std::int32_t i,
-                              const std::vector<std::int32_t>& faces) const {
-    // Eq. 5 visibility: i lies in front of j and no front face separates them. `faces` holds
-    // every front face whose box meets the box of the segment (and more).
+bool RegionMesher::is_visible(std::int32_t j, std::int32_t i) {
+    // Eq. 5 visibility: i lies in front of j and no front face separates them: none of the
+    // front faces whose box meets the box of the segment (from the face ADT) crosses it.
     if ((x(i) - x(j)).dot(node_normal(j)) <= 0.0) return false;
-    double lo[3], hi[3];
-    for (int k = 0; k < 3; ++k) {
-        lo[k] = std::min(p(i)[k], p(j)[k]);
-        hi[k] = std::max(p(i)[k], p(j)[k]);
-    }
-    for (std::int32_t f : faces) {
+    core::AdtBox box = core::AdtBox::of_point(x(j));
+    box.extend(x(i));
+    gather_faces(box, visible_faces_);
+    for (std::int32_t f : visible_faces_) {
         const Tri& t = fv_[f];
         if (t[0] == i || t[1] == i || t[2] == i || t[0] == j || t[1] == j || t[2] == j) continue;
-        if (!box_meets_face(lo, hi, t)) continue;
         if (core::segment_intersects_triangle(p(j), p(i), p(t[0]), p(t[1]), p(t[2]))) return false;
     }
     return true;
@@ -815,31 +803,20 @@ void RegionMesher::setup_level() {
         const double R = 3.0 * rs[j];
         adt_.query_sphere(x(j), R, ids, core::AdtOrder::walk);  // order: ties of |c| only
         const V3 Nj = node_normal(j);
-        bool have_faces = false;  // front faces of the box of the sphere, fetched once
-        {
-            for (std::int32_t i : ids) {
-                if (!(rs[j] < rs[i])) continue;
-                if (node_normal(i).dot(Nj) >= 0.5) continue;  // angle must exceed 60 degrees
-                const double d = (x(i) - x(j)).norm();
-                if (d > R || d == 0.0) continue;
-                const double coji = 0.05 * (3.0 * rs[i] / d) * (ho[j] - ho[i]) / ho[j];
-                const double cji = std::min(std::max(coji, -0.6), 0.5);
-                const double coij = 0.05 * (3.0 * rs[j] / d) * (ho[i] - ho[j]) / ho[i];
-                const double cij = std::min(std::max(coij, -0.6), 0.5);
-                // the (costly) visibility test only when it can change c_i or c_j
-                if (!(std::abs(cji) > std::abs(c[i])) && !(std::abs(cij) > std::abs(c[j]))) continue;
-                if ((x(i) - x(j)).dot(Nj) <= 0.0) continue;  // i behind j: not visible
-                if (!have_faces) {
-                    core::AdtBox box;
-                    box.extend(x(j));
-                    for (std::int32_t i2 : ids) box.extend(x(i2));
-                    gather_faces(box, visible_faces_);
-                    have_faces = true;
-                }
-                if (!is_visible(j, i, visible_faces_)) continue;
-                if (std::abs(cji) > std::abs(c[i])) c[i] = cji;
-                if (std::abs(cij) > std::abs(c[j])) c[j] = cij;
-            }
+        for (std::int32_t i : ids) {
+            if (!(rs[j] < rs[i])) continue;
+            if (node_normal(i).dot(Nj) >= 0.5) continue;  // angle must exceed 60 degrees
+            const double d = (x(i) - x(j)).norm();
+            if (d > R || d == 0.0) continue;
+            const double coji = 0.05 * (3.0 * rs[i] / d) * (ho[j] - ho[i]) / ho[j];
+            const double cji = std::min(std::max(coji, -0.6), 0.5);
+            const double coij = 0.05 * (3.0 * rs[j] / d) * (ho[i] - ho[j]) / ho[i];
+            const double cij = std::min(std::max(coij, -0.6), 0.5);
+            // the (costly) visibility test only when it can change c_i or c_j
+            if (!(std::abs(cji) > std::abs(c[i])) && !(std::abs(cij) > std::abs(c[j]))) continue;
+            if (!is_visible(j, i)) continue;
+            if (std::abs(cji) > std::abs(c[i])) c[i] = cji;
+            if (std::abs(cij) > std::abs(c[j])) c[j] = cij;
         }
     }
     for (std::int32_t v : front_nodes) {
