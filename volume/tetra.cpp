@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include <emmintrin.h>
 #include <tbb/parallel_for.h>
 
 #include "pipeline/core/adt.h"
@@ -540,26 +541,43 @@ private:
         const std::int32_t stamp = next_mark();
         for (std::int32_t v : tv) mark_[v] = stamp;
         // Per node of `near`, once per call (a node is in several faces): bits 0-5 its outcode
-        // against the tet's box (below lo / above hi on x, y, z), bits 6-9 the planes i it lies
-        // beyond by more than ptol, bits 10-13 the planes through it (the tet's own nodes).
+        // against the tet's box (bits 0-2 below lo on x, y, z, bits 3-5 above hi), bits 6-9
+        // the planes i it lies beyond by more than ptol, bits 10-13 the planes through it (the
+        // tet's own nodes).
         const std::int32_t cstamp = next_code_stamp();
         static constexpr std::uint16_t kOnPlanes[4] = {0b1011, 0b0111, 0b1101, 0b1110};
         for (int j = 0; j < 4; ++j) {
             node_code_[tv[j]] = {cstamp, static_cast<std::uint16_t>(kOnPlanes[j] << 10)};  // in the box
         }
+        // The same arithmetic in SSE2, two planes (or axes) per register: for plane i,
+        // ((n_x x + n_y y) + n_z z) - d > tol, evaluated in the scalar order, bit for bit.
+        const __m128d lo01 = _mm_setr_pd(lo[0], lo[1]), hi01 = _mm_setr_pd(hi[0], hi[1]);
+        __m128d nx[2], ny[2], nz[2], nd[2], nt[2];
+        for (int h = 0; h < 2; ++h) {
+            nx[h] = _mm_setr_pd(pn[2 * h][0], pn[2 * h + 1][0]);
+            ny[h] = _mm_setr_pd(pn[2 * h][1], pn[2 * h + 1][1]);
+            nz[h] = _mm_setr_pd(pn[2 * h][2], pn[2 * h + 1][2]);
+            nd[h] = _mm_setr_pd(pd[2 * h], pd[2 * h + 1]);
+            nt[h] = _mm_setr_pd(ptol[2 * h], ptol[2 * h + 1]);
+        }
         auto code_of = [&](std::int32_t w) -> std::uint16_t {
             if (node_code_[w].stamp == cstamp) return node_code_[w].code;
             const double* pw = p(w);
-            std::uint16_t c = 0;
-            for (int k = 0; k < 3; ++k) {
-                if (pw[k] < lo[k]) c |= static_cast<std::uint16_t>(1u << (2 * k));
-                if (pw[k] > hi[k]) c |= static_cast<std::uint16_t>(2u << (2 * k));
+            const __m128d xy = _mm_loadu_pd(pw);
+            unsigned c = static_cast<unsigned>(_mm_movemask_pd(_mm_cmplt_pd(xy, lo01))) |
+                         (pw[2] < lo[2] ? 4u : 0u) |
+                         static_cast<unsigned>(_mm_movemask_pd(_mm_cmpgt_pd(xy, hi01))) << 3 |
+                         (pw[2] > hi[2] ? 32u : 0u);
+            const __m128d px = _mm_set1_pd(pw[0]), py = _mm_set1_pd(pw[1]), pz = _mm_set1_pd(pw[2]);
+            for (int h = 0; h < 2; ++h) {
+                const __m128d sum = _mm_sub_pd(
+                    _mm_add_pd(_mm_add_pd(_mm_mul_pd(nx[h], px), _mm_mul_pd(ny[h], py)),
+                               _mm_mul_pd(nz[h], pz)),
+                    nd[h]);
+                c |= static_cast<unsigned>(_mm_movemask_pd(_mm_cmpgt_pd(sum, nt[h]))) << (6 + 2 * h);
             }
-            for (int i = 0; i < 4; ++i)
-                if (pn[i][0] * pw[0] + pn[i][1] * pw[1] + pn[i][2] * pw[2] - pd[i] > ptol[i])
-                    c |= static_cast<std::uint16_t>(1u << (6 + i));
-            node_code_[w] = {cstamp, c};
-            return c;
+            node_code_[w] = {cstamp, static_cast<std::uint16_t>(c)};
+            return static_cast<std::uint16_t>(c);
         };
         for (std::int32_t f : near) {
             if (f == base || f == existing[0] || f == existing[1] || f == existing[2]) continue;
