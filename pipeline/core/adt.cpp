@@ -372,11 +372,44 @@ void Adt::query_box(const AdtBox& query, std::vector<std::int32_t>& out_ids, Adt
     if (order == AdtOrder::by_id) std::sort(out_ids.begin(), out_ids.end());
 }
 
+namespace {
+
+// bound_distance2 and key_distance2 with x and y in one SSE2 register: the same operations
+// on the same doubles in the same order (max of equal values may pick the other zero, whose
+// square is the same), so the same results bit for bit.
+struct SphereTest {
+    __m128d p01;
+    double p2;
+    explicit SphereTest(const Eigen::Vector3d& p) : p01(_mm_loadu_pd(p.data())), p2(p[2]) {}
+    double finish(__m128d lo_gap, __m128d hi_gap, double lo_gap2, double hi_gap2) const {
+        const __m128d d = _mm_max_pd(_mm_max_pd(lo_gap, hi_gap), _mm_setzero_pd());
+        const __m128d sq = _mm_mul_pd(d, d);
+        const double d2 = std::max(std::max(lo_gap2, hi_gap2), 0.0);
+        return (_mm_cvtsd_f64(sq) + _mm_cvtsd_f64(_mm_unpackhi_pd(sq, sq))) + d2 * d2;
+    }
+    // bounds (lo x, y, z, -hi x, y, z) as floats
+    double bound_distance2(const float* b) const {
+        const __m128 b0 = _mm_loadu_ps(b), b1 = _mm_loadu_ps(b + 2);
+        const __m128d lo01 = _mm_cvtps_pd(b0);
+        const __m128d nhi01 = _mm_cvtps_pd(_mm_shuffle_ps(b1, b1, _MM_SHUFFLE(3, 3, 2, 1)));
+        return finish(_mm_sub_pd(lo01, p01), _mm_add_pd(p01, nhi01),
+                      static_cast<double>(b[2]) - p2, p2 + static_cast<double>(b[5]));
+    }
+    // key (lo x, y, z, hi x, y, z) as doubles
+    double key_distance2(const double* k) const {
+        return finish(_mm_sub_pd(_mm_loadu_pd(k), p01), _mm_sub_pd(p01, _mm_loadu_pd(k + 3)),
+                      k[2] - p2, p2 - k[5]);
+    }
+};
+
+}  // namespace
+
 void Adt::collect_sphere(const Eigen::Vector3d& center, double radius2,
                          std::vector<std::int32_t>& out_ids) const {
-    auto meets = [&](const Node& n) { return bound_distance2(n, center) <= radius2; };
+    const SphereTest test(center);
+    auto meets = [&](const Node& n) { return test.bound_distance2(n.bound) <= radius2; };
     auto visit = [&](const Node& n) {
-        if (key_distance2(n.key, center) <= radius2) out_ids.push_back(n.id);
+        if (test.key_distance2(n.key) <= radius2) out_ids.push_back(n.id);
     };
     bounded_walk(nodes_, root_, meets, visit);
 }
