@@ -594,9 +594,13 @@ private:
             const unsigned ok = (on0 | ((c0 >> 6) & 0xF)) & (on1 | ((c1 >> 6) & 0xF)) &
                                 (on2 | ((c2 >> 6) & 0xF));
             if ((ok & ~(on0 & on1 & on2) & 0xF) != 0) continue;
-            for (std::int32_t w : t) {
+            const std::uint16_t code[3] = {c0, c1, c2};
+            for (int k = 0; k < 3; ++k) {
+                const std::int32_t w = t[k];
                 if (mark_[w] == stamp) continue;
                 mark_[w] = stamp;
+                // outside the tet's box, or beyond one of its planes: outside the tet
+                if ((code[k] & 0x3FF) != 0) continue;
                 bool inside = true;
                 for (int i = 0; i < 4 && inside; ++i) {
                     const int s = core::orient3d(p(tv[kF[i][0]]), p(tv[kF[i][1]]),
@@ -607,8 +611,13 @@ private:
             }
             for (int e = 0; e < 3; ++e) {
                 const std::int32_t e0 = t[e], e1 = t[(e + 1) % 3];
+                // Both ends beyond one side of the tet's box, or beyond the plane of new face
+                // i (plane i + 1: (a, b, q), (b, c, q), (c, a, q)): the edge misses the face.
+                const unsigned both = code[e] & code[(e + 1) % 3];
+                if ((both & 0x3F) != 0) continue;
                 for (int i = 0; i < 3; ++i)
-                    if (face_new[i] && improper_intersection(e0, e1, tv[i], tv[(i + 1) % 3], q))
+                    if (face_new[i] && (both & (1u << (7 + i))) == 0 &&
+                        improper_intersection(e0, e1, tv[i], tv[(i + 1) % 3], q))
                         return false;
             }
             for (int i = 0; i < 3; ++i)
