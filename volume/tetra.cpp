@@ -7,6 +7,7 @@
 #include <exception>
 #include <functional>
 #include <limits>
+#include <map>
 #include <mutex>
 #include <queue>
 #include <sstream>
@@ -92,6 +93,51 @@ bool same_cycle(const Tri& t, std::int32_t a, std::int32_t b, std::int32_t c) {
     return (t[0] == a && t[1] == b && t[2] == c) || (t[1] == a && t[2] == b && t[0] == c) ||
            (t[2] == a && t[0] == b && t[1] == c);
 }
+
+/// The bases waiting in a stage, smallest (key, Morton code, face) first. Keys are area
+/// classes (few distinct values) in the layered front and areas in the closing phase. With
+/// classes, one binary heap per class: the same order as one heap over everything, and each
+/// pop sifts through the small heap of the current class only.
+class BaseQueue {
+public:
+    struct Item {
+        double key;
+        std::uint64_t morton;
+        std::int32_t f, stamp;
+    };
+    explicit BaseQueue(bool by_class) : by_class_(by_class) {}
+    void push(const Item& it) {
+        if (!by_class_) {
+            heap_push(flat_, it);
+            return;
+        }
+        heap_push(classes_[it.key], it);
+    }
+    bool empty() const { return by_class_ ? classes_.empty() : flat_.empty(); }
+    Item pop() {
+        std::vector<Item>& heap = by_class_ ? classes_.begin()->second : flat_;
+        std::pop_heap(heap.begin(), heap.end(), later);
+        const Item it = heap.back();
+        heap.pop_back();
+        if (by_class_ && heap.empty()) classes_.erase(classes_.begin());
+        return it;
+    }
+
+private:
+    // heap order: the top is the smallest (key, morton, f)
+    static bool later(const Item& a, const Item& b) {
+        if (a.key != b.key) return a.key > b.key;
+        if (a.morton != b.morton) return a.morton > b.morton;
+        return a.f > b.f;
+    }
+    static void heap_push(std::vector<Item>& heap, const Item& it) {
+        heap.push_back(it);
+        std::push_heap(heap.begin(), heap.end(), later);
+    }
+    bool by_class_;
+    std::vector<Item> flat_;
+    std::map<double, std::vector<Item>> classes_;
+};
 
 /// The layered advancing front of §3.1-3.2 for one region.
 ///
@@ -1128,19 +1174,9 @@ void RegionMesher::run_stage(int stage, bool allow_remesh, std::int64_t& attempt
     // CPU, the same skewness figures (mean 0.4272 vs 0.4271, > 0.8: 10.03% vs 10.02%), 4% fewer
     // local remeshings. The closing phase, which fills small leftover cavities, keeps the exact
     // order: it closes cavities the coarse order leaves it (an AAL region it failed on).
-    struct Item {
-        double key;  // area class (layered front) or area (closing phase)
-        std::uint64_t morton;
-        std::int32_t f, stamp;
-        bool operator<(const Item& o) const {  // priority_queue: largest first -> invert
-            if (key != o.key) return key > o.key;
-            if (morton != o.morton) return morton > o.morton;
-            return f > o.f;
-        }
-    };
+    BaseQueue queue(allow_remesh);
     const core::AdtBox domain = adt_.domain();
     const bool spatial = allow_remesh;
-    std::priority_queue<Item> queue;
     auto push = [&](std::int32_t f) {
         if (!falive_[f] || !is_eligible(f, stage)) return;
         const double a = farea_[f];
@@ -1157,8 +1193,7 @@ void RegionMesher::run_stage(int stage, bool allow_remesh, std::int64_t& attempt
     const std::int64_t max_attempts = 50 * static_cast<std::int64_t>(fv_.size()) + 100000;
     std::int64_t local_attempts = 0;
     while (!queue.empty()) {
-        const Item it = queue.top();
-        queue.pop();
+        const BaseQueue::Item it = queue.pop();
         const std::int32_t f = it.f;
         if (!falive_[f] || fstamp_[f] != it.stamp || failed_stamp_[f] == fstamp_[f]) continue;
         if (!is_eligible(f, stage)) continue;
