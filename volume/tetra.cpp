@@ -142,7 +142,7 @@ private:
 /// The layered advancing front of §3.1-3.2 for one region.
 ///
 /// Memory per million elements: nodes 24 B xyz + 60 B attributes + 88 B in the node ADT while
-/// on the front; front faces 64 B + 88 B in the face ADT; tets 16 B + 16 B links + 5 B. About
+/// on the front; front faces 65 B (a 64-B record and a flag) + 88 B in the face ADT; tets 16 B + 16 B links + 5 B. About
 /// 0.1 GB per million tets in all.
 class RegionMesher {
 public:
@@ -187,12 +187,17 @@ private:
     std::int32_t code_stamp_value_ = 0;
 
     // front triangles (normal points into the unmeshed part of the region)
-    std::vector<Tri> fv_;
-    std::vector<double> fnormal_;             // unit, 3 per face
-    std::vector<double> farea_;
-    std::vector<std::int32_t> fnext_;         // 3 per face: next corner in the node's list
-    std::vector<std::int32_t> fstamp_;        // generation, validates queue entries
-    std::vector<std::int32_t> failed_stamp_;  // generation at which the face last failed
+    // One cache line per face: what the search for a base and its tests read together.
+    struct alignas(64) FaceRec {
+        Tri v;                    // nodes
+        std::int32_t next[3];     // per corner: next corner 3 g + c in the node's list, -1
+        double n[3];              // unit normal
+        double area;
+        std::int32_t stamp;       // generation, validates queue entries
+        std::int32_t failed;      // generation at which the face last failed, -1
+    };
+    static_assert(sizeof(FaceRec) == 64, "one cache line per front face");
+    std::vector<FaceRec> faces_;
     std::vector<std::uint8_t> falive_;
     std::vector<std::int32_t> free_faces_;
     std::int32_t front_size_ = 0;
@@ -243,7 +248,7 @@ private:
     const double* p(std::int32_t v) const { return &xyz_[3 * static_cast<std::size_t>(v)]; }
     V3 x(std::int32_t v) const { return V3(p(v)[0], p(v)[1], p(v)[2]); }
     V3 face_normal(std::int32_t f) const {
-        return V3(fnormal_[3 * f], fnormal_[3 * f + 1], fnormal_[3 * f + 2]);
+        return V3(faces_[f].n[0], faces_[f].n[1], faces_[f].n[2]);
     }
     V3 node_normal(std::int32_t v) const { return V3(normal_[3 * v], normal_[3 * v + 1], normal_[3 * v + 2]); }
     std::int32_t node_count() const { return static_cast<std::int32_t>(level_.size()); }
@@ -335,35 +340,30 @@ private:
             f = free_faces_.back();
             free_faces_.pop_back();
         } else {
-            f = static_cast<std::int32_t>(fv_.size());
-            fv_.push_back({});
-            fnormal_.insert(fnormal_.end(), {0.0, 0.0, 0.0});
-            farea_.push_back(0.0);
-            fnext_.insert(fnext_.end(), {-1, -1, -1});
-            fstamp_.push_back(0);
-            failed_stamp_.push_back(-1);
+            f = static_cast<std::int32_t>(faces_.size());
+            faces_.push_back({{0, 0, 0}, {-1, -1, -1}, {0.0, 0.0, 0.0}, 0.0, 0, -1});
             falive_.push_back(0);
         }
-        fv_[f] = {a, b, c};
-        for (int k = 0; k < 3; ++k) count_edge(fv_[f][k], fv_[f][(k + 1) % 3], +1);
+        faces_[f].v = {a, b, c};
+        for (int k = 0; k < 3; ++k) count_edge(faces_[f].v[k], faces_[f].v[(k + 1) % 3], +1);
         const V3 n = (x(b) - x(a)).cross(x(c) - x(a));
         const double len = n.norm();
-        farea_[f] = 0.5 * len;
+        faces_[f].area = 0.5 * len;
         const V3 u = len > 0.0 ? V3(n / len) : V3::Zero();
-        fnormal_[3 * f] = u.x();
-        fnormal_[3 * f + 1] = u.y();
-        fnormal_[3 * f + 2] = u.z();
-        ++fstamp_[f];
+        faces_[f].n[0] = u.x();
+        faces_[f].n[1] = u.y();
+        faces_[f].n[2] = u.z();
+        ++faces_[f].stamp;
         falive_[f] = 1;
         {
             core::AdtBox box;
             for (const std::int32_t v : {a, b, c}) box.extend(x(v));
             face_adt_.insert(f, box);
         }
-        const Tri& t = fv_[f];
+        const Tri& t = faces_[f].v;
         for (int k = 0; k < 3; ++k) {
             if (face_head_[t[k]] < 0) adt_.insert(t[k], x(t[k]));  // joins the front
-            fnext_[3 * f + k] = face_head_[t[k]];
+            faces_[f].next[k] = face_head_[t[k]];
             face_head_[t[k]] = 3 * f + k;
         }
         ++front_size_;
@@ -371,28 +371,28 @@ private:
     }
 
     void remove_face(std::int32_t f) {
-        const Tri t = fv_[f];
+        const Tri t = faces_[f].v;
         for (int k = 0; k < 3; ++k) {
             std::int32_t* link = &face_head_[t[k]];
             while (*link != 3 * f + k) {
                 FM_CHECK(*link >= 0);
-                link = &fnext_[*link];
+                link = &faces_[*link / 3].next[*link % 3];
             }
-            *link = fnext_[3 * f + k];
+            *link = faces_[f].next[k];
             if (face_head_[t[k]] < 0) adt_.remove(t[k]);  // leaves the front
             count_edge(t[k], t[(k + 1) % 3], -1);
         }
         falive_[f] = 0;
         face_adt_.remove(f);
-        ++fstamp_[f];
+        ++faces_[f].stamp;
         free_faces_.push_back(f);
         --front_size_;
     }
 
     /// The front face with vertex set {a, b, c}, -1 if none.
     std::int32_t find_face(std::int32_t a, std::int32_t b, std::int32_t c) const {
-        for (std::int32_t k = face_head_[a]; k >= 0; k = fnext_[k]) {
-            const Tri& t = fv_[k / 3];
+        for (std::int32_t k = face_head_[a]; k >= 0; k = faces_[k / 3].next[k % 3]) {
+            const Tri& t = faces_[k / 3].v;
             const bool hb = t[0] == b || t[1] == b || t[2] == b;
             const bool hc = t[0] == c || t[1] == c || t[2] == c;
             if (hb && hc) return k / 3;
@@ -402,8 +402,8 @@ private:
 
     /// True when u-v is an edge of the front.
     bool is_front_edge(std::int32_t u, std::int32_t v) const {
-        for (std::int32_t k = face_head_[u]; k >= 0; k = fnext_[k]) {
-            const Tri& t = fv_[k / 3];
+        for (std::int32_t k = face_head_[u]; k >= 0; k = faces_[k / 3].next[k % 3]) {
+            const Tri& t = faces_[k / 3].v;
             if (t[0] == v || t[1] == v || t[2] == v) return true;
         }
         return false;
@@ -414,8 +414,8 @@ private:
     void edge_and_face(std::int32_t u, std::int32_t w, std::int32_t v, bool& edge,
                        bool& face) const {
         edge = face = false;
-        for (std::int32_t k = face_head_[u]; k >= 0; k = fnext_[k]) {
-            const Tri& t = fv_[k / 3];
+        for (std::int32_t k = face_head_[u]; k >= 0; k = faces_[k / 3].next[k % 3]) {
+            const Tri& t = faces_[k / 3].v;
             if (t[0] != v && t[1] != v && t[2] != v) continue;
             edge = true;
             if (t[0] == w || t[1] == w || t[2] == w) {
@@ -446,7 +446,7 @@ private:
             const std::int32_t x0 = v[lf[0]], x1 = v[lf[1]], x2 = v[lf[2]];
             const std::int32_t f = find_face(x0, x1, x2);
             if (f >= 0) {
-                FM_CHECK(!same_cycle(fv_[f], x0, x1, x2));
+                FM_CHECK(!same_cycle(faces_[f].v, x0, x1, x2));
                 remove_face(f);
             } else {
                 new_faces_.push_back(add_face(x0, x1, x2));
@@ -464,7 +464,7 @@ private:
             const std::int32_t x0 = v[lf[0]], x1 = v[lf[1]], x2 = v[lf[2]];
             const std::int32_t f = find_face(x0, x1, x2);
             if (f >= 0) {
-                FM_CHECK(same_cycle(fv_[f], x0, x1, x2));
+                FM_CHECK(same_cycle(faces_[f].v, x0, x1, x2));
                 remove_face(f);
             } else {
                 new_faces_.push_back(add_face(x0, x2, x1));
@@ -627,7 +627,7 @@ private:
         };
         for (std::int32_t f : near) {
             if (f == base || f == existing[0] || f == existing[1] || f == existing[2]) continue;
-            const Tri& t = fv_[f];
+            const Tri& t = faces_[f].v;
             const std::uint16_t c0 = code_of(t[0]), c1 = code_of(t[1]), c2 = code_of(t[2]);
             // The triangle's box misses the tet's: all three nodes beyond one side of it.
             if ((c0 & c1 & c2 & 0x3F) != 0) continue;
@@ -775,7 +775,7 @@ private:
     // ---- §3.1.4 / §3.1.5 -------------------------------------------------------------------
     bool is_active(std::int32_t v) const { return setup_stamp_[v] == front_no_; }
     bool is_eligible(std::int32_t f, int stage) const {
-        const Tri& t = fv_[f];
+        const Tri& t = faces_[f].v;
         const int n = is_active(t[0]) + is_active(t[1]) + is_active(t[2]);
         return stage == 1 ? n == 3 : n >= 1;
     }
@@ -815,7 +815,7 @@ void RegionMesher::init_front(const core::SurfaceNetwork& s) {
                                      std::to_string(f) + " has a repeated vertex");
         const std::int32_t g = find_face(a, b, c);
         if (g >= 0) {
-            if (same_cycle(fv_[g], a, b, c))
+            if (same_cycle(faces_[g].v, a, b, c))
                 FM_THROW(InputError, "region " + std::to_string(region_) + ": face " +
                                          std::to_string(f) + " appears twice near " + where(a));
             remove_face(g);  // both sides of a zero-thickness sheet: nothing to mesh
@@ -834,7 +834,7 @@ bool RegionMesher::is_visible(std::int32_t j, std::int32_t i) {
     box.extend(x(i));
     gather_faces(box, visible_faces_);
     for (std::int32_t f : visible_faces_) {
-        const Tri& t = fv_[f];
+        const Tri& t = faces_[f].v;
         if (t[0] == i || t[1] == i || t[2] == i || t[0] == j || t[1] == j || t[2] == j) continue;
         if (core::segment_intersects_triangle(p(j), p(i), p(t[0]), p(t[1]), p(t[2]))) return false;
     }
@@ -848,13 +848,13 @@ void RegionMesher::setup_level() {
     std::vector<double> nsum(3 * static_cast<std::size_t>(n), 0.0), asum(n, 0.0), rs(n, 0.0),
         ho(n, 0.0), c(n, 0.0);
     std::vector<std::int32_t> cnt(n, 0), front_nodes;
-    for (std::int32_t f = 0; f < static_cast<std::int32_t>(fv_.size()); ++f) {
+    for (std::int32_t f = 0; f < static_cast<std::int32_t>(faces_.size()); ++f) {
         if (!falive_[f]) continue;
-        const Tri& t = fv_[f];
+        const Tri& t = faces_[f].v;
         for (int k = 0; k < 3; ++k) {
             const std::int32_t v = t[k];
-            for (int a = 0; a < 3; ++a) nsum[3 * v + a] += fnormal_[3 * f + a];
-            asum[v] += farea_[f];
+            for (int a = 0; a < 3; ++a) nsum[3 * v + a] += faces_[f].n[a];
+            asum[v] += faces_[f].area;
             ++cnt[v];
             rs[v] = std::max(rs[v], (x(t[(k + 1) % 3]) - x(v)).norm());
             rs[v] = std::max(rs[v], (x(t[(k + 2) % 3]) - x(v)).norm());
@@ -904,9 +904,9 @@ void RegionMesher::setup_level() {
             sum[v] = 0.0;
             num[v] = 0;
         }
-        for (std::int32_t f = 0; f < static_cast<std::int32_t>(fv_.size()); ++f) {
+        for (std::int32_t f = 0; f < static_cast<std::int32_t>(faces_.size()); ++f) {
             if (!falive_[f]) continue;
-            const Tri& t = fv_[f];
+            const Tri& t = faces_[f].v;
             for (int k = 0; k < 3; ++k) {
                 sum[t[k]] += h_[t[(k + 1) % 3]] + h_[t[(k + 2) % 3]];
                 num[t[k]] += 2;
@@ -919,21 +919,21 @@ void RegionMesher::setup_level() {
 RegionMesher::Base RegionMesher::make_base(std::int32_t f, bool active_only) {
     Base bk;
     bk.f = f;
-    const Tri& t = fv_[f];
+    const Tri& t = faces_[f].v;
     stars_.clear();
     for (int i = 0; i < 3; ++i) {
         bk.a[i] = t[i];
         bk.A[i] = x(t[i]);
         bk.star_begin[i] = static_cast<std::int32_t>(stars_.size());
-        for (std::int32_t k = face_head_[t[i]]; k >= 0; k = fnext_[k]) {
+        for (std::int32_t k = face_head_[t[i]]; k >= 0; k = faces_[k / 3].next[k % 3]) {
             const std::int32_t g = k / 3, c = k % 3;
-            const std::int32_t u = fv_[g][(c + 1) % 3], w = fv_[g][(c + 2) % 3];
+            const std::int32_t u = faces_[g].v[(c + 1) % 3], w = faces_[g].v[(c + 2) % 3];
             stars_.push_back({g, u, w, x(u), x(w), face_normal(g)});
         }
     }
     bk.star_begin[3] = static_cast<std::int32_t>(stars_.size());
     bk.n = face_normal(f);
-    bk.area = farea_[f];
+    bk.area = faces_[f].area;
     // Eq. 8 from the nodes on the n-th level front (§3.1.5); other nodes fall back on the
     // height they last had, or on Eq. 4 of this face alone.
     double hs = 0.0;
@@ -1012,7 +1012,7 @@ bool RegionMesher::try_base(std::int32_t f, bool active_only, bool relaxed) {
         cands.clear();
         if (small_front) {
             near.clear();
-            for (std::int32_t g = 0; g < static_cast<std::int32_t>(fv_.size()); ++g)
+            for (std::int32_t g = 0; g < static_cast<std::int32_t>(faces_.size()); ++g)
                 if (falive_[g]) near.push_back(g);
             near_ready = true;
         } else if (from_faces) {
@@ -1028,7 +1028,7 @@ bool RegionMesher::try_base(std::int32_t f, bool active_only, bool relaxed) {
             const std::int32_t stamp = next_mark();
             node_ids_.clear();
             for (std::int32_t g : near)
-                for (std::int32_t q : fv_[g])
+                for (std::int32_t q : faces_[g].v)
                     if (mark_[q] != stamp) {
                         mark_[q] = stamp;
                         node_ids_.push_back(q);
@@ -1130,7 +1130,7 @@ bool RegionMesher::try_base(std::int32_t f, bool active_only, bool relaxed) {
 /// (all local tets when there are none), a ring more for every earlier remeshing there.
 bool RegionMesher::remesh_around(std::int32_t f) {
     if (remeshes_ >= remesh_budget_) return false;
-    const Tri t = fv_[f];
+    const Tri t = faces_[f].v;
     std::int32_t r = 0;
     for (std::int32_t v : t) r = std::max(r, remesh_count_[v]);
     if (r >= params_.max_remesh_per_node) return false;
@@ -1179,23 +1179,23 @@ void RegionMesher::run_stage(int stage, bool allow_remesh, std::int64_t& attempt
     const bool spatial = allow_remesh;
     auto push = [&](std::int32_t f) {
         if (!falive_[f] || !is_eligible(f, stage)) return;
-        const double a = farea_[f];
+        const double a = faces_[f].area;
         if (!spatial) {
-            queue.push({a, 0, f, fstamp_[f]});
+            queue.push({a, 0, f, faces_[f].stamp});
             return;
         }
         const double area_class = a > 0.0 ? std::floor(4.0 * std::log2(a)) : -1e300;
-        const Tri& t = fv_[f];
+        const Tri& t = faces_[f].v;
         queue.push({area_class, morton_code((x(t[0]) + x(t[1]) + x(t[2])) / 3.0, domain), f,
-                    fstamp_[f]});
+                    faces_[f].stamp});
     };
-    for (std::int32_t f = 0; f < static_cast<std::int32_t>(fv_.size()); ++f) push(f);
-    const std::int64_t max_attempts = 50 * static_cast<std::int64_t>(fv_.size()) + 100000;
+    for (std::int32_t f = 0; f < static_cast<std::int32_t>(faces_.size()); ++f) push(f);
+    const std::int64_t max_attempts = 50 * static_cast<std::int64_t>(faces_.size()) + 100000;
     std::int64_t local_attempts = 0;
     while (!queue.empty()) {
         const BaseQueue::Item it = queue.pop();
         const std::int32_t f = it.f;
-        if (!falive_[f] || fstamp_[f] != it.stamp || failed_stamp_[f] == fstamp_[f]) continue;
+        if (!falive_[f] || faces_[f].stamp != it.stamp || faces_[f].failed == faces_[f].stamp) continue;
         if (!is_eligible(f, stage)) continue;
         if (++local_attempts > max_attempts) break;
         ++attempts;
@@ -1213,7 +1213,7 @@ void RegionMesher::run_stage(int stage, bool allow_remesh, std::int64_t& attempt
             if (falive_[f]) push(f);
             continue;
         }
-        if (falive_[f]) failed_stamp_[f] = fstamp_[f];
+        if (falive_[f]) faces_[f].failed = faces_[f].stamp;
     }
 }
 
@@ -1221,8 +1221,8 @@ void RegionMesher::closing_round(std::int32_t rings) {
     // Enlarge every cavity: remove `rings` rings of tets around the nodes left on the front.
     if (rings > 0) {
         std::vector<std::int32_t> nodes;
-        for (std::int32_t f = 0; f < static_cast<std::int32_t>(fv_.size()); ++f)
-            if (falive_[f]) nodes.insert(nodes.end(), fv_[f].begin(), fv_[f].end());
+        for (std::int32_t f = 0; f < static_cast<std::int32_t>(faces_.size()); ++f)
+            if (falive_[f]) nodes.insert(nodes.end(), faces_[f].v.begin(), faces_[f].v.end());
         std::vector<std::int32_t> tets;
         for (std::int32_t ring = 0; ring < rings; ++ring) {
             std::sort(nodes.begin(), nodes.end());
@@ -1250,15 +1250,15 @@ void RegionMesher::closing_round(std::int32_t rings) {
     for (int pass = 0; pass < 4 && front_size_ > 0; ++pass) {
         bool progress = false;
         std::vector<std::pair<double, std::int32_t>> order;
-        for (std::int32_t f = 0; f < static_cast<std::int32_t>(fv_.size()); ++f)
-            if (falive_[f]) order.push_back({farea_[f], f});
+        for (std::int32_t f = 0; f < static_cast<std::int32_t>(faces_.size()); ++f)
+            if (falive_[f]) order.push_back({faces_[f].area, f});
         std::sort(order.begin(), order.end());
-        std::vector<std::int32_t> stamps(fv_.size());
-        for (auto [a, f] : order) stamps[f] = fstamp_[f];
+        std::vector<std::int32_t> stamps(faces_.size());
+        for (auto [a, f] : order) stamps[f] = faces_[f].stamp;
         for (auto [a, f] : order) {
             (void)a;
             if (f >= static_cast<std::int32_t>(stamps.size()) || !falive_[f] ||
-                fstamp_[f] != stamps[f])
+                faces_[f].stamp != stamps[f])
                 continue;
             if (try_base(f, false, true)) progress = true;
         }
@@ -1268,8 +1268,8 @@ void RegionMesher::closing_round(std::int32_t rings) {
 
 void RegionMesher::fail(const std::string& why) const {
     std::int32_t f = 0;
-    while (f < static_cast<std::int32_t>(fv_.size()) && !falive_[f]) ++f;
-    std::string place = f < static_cast<std::int32_t>(fv_.size()) ? where(fv_[f][0]) : "?";
+    while (f < static_cast<std::int32_t>(faces_.size()) && !falive_[f]) ++f;
+    std::string place = f < static_cast<std::int32_t>(faces_.size()) ? where(faces_[f].v[0]) : "?";
     FM_THROW(MeshingError, "tetra: region " + std::to_string(region_) + ": " + why + " near " +
                                place + ", " + std::to_string(front_size_) +
                                " front triangles left");
