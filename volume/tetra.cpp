@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <exception>
 #include <functional>
 #include <limits>
@@ -142,8 +143,8 @@ private:
 /// The layered advancing front of §3.1-3.2 for one region.
 ///
 /// Memory per million elements: nodes 24 B xyz + 60 B attributes + 88 B in the node ADT while
-/// on the front; front faces 65 B (a 64-B record and a flag) + 88 B in the face ADT; tets 16 B + 16 B links + 5 B. About
-/// 0.1 GB per million tets in all.
+/// on the front; front faces 77 B (a 64-B record, back links, a flag) + 88 B in the face
+/// ADT; tets 16 B + 16 B links + 5 B. About 0.1 GB per million tets in all.
 class RegionMesher {
 public:
     using Log = std::function<void(const std::string&)>;
@@ -199,6 +200,7 @@ private:
     static_assert(sizeof(FaceRec) == 64, "one cache line per front face");
     std::vector<FaceRec> faces_;
     std::vector<std::uint8_t> falive_;
+    std::vector<std::int32_t> fprev_;        // per corner: previous corner in the node's list, -1
     std::vector<std::int32_t> free_faces_;
     std::int32_t front_size_ = 0;
     core::Adt adt_;                           // the front nodes (§3.1.1)
@@ -308,8 +310,19 @@ private:
     static int bucket_of(double len2) {
         if (!(len2 > 0.0)) return 0;
         if (!(len2 < std::numeric_limits<double>::infinity())) return kBuckets - 1;
-        int e = 0;
-        const double m = std::frexp(len2, &e);
+        // m and e as std::frexp gives them, from the bits of a normal len2 (the libm call was
+        // a tenth of a front face update)
+        std::uint64_t bits;
+        std::memcpy(&bits, &len2, sizeof bits);
+        const int biased = static_cast<int>(bits >> 52);  // sign bit 0
+        int e = biased - 1022;
+        double m;
+        if (biased != 0) {
+            bits = (bits & ((std::uint64_t{1} << 52) - 1)) | (std::uint64_t{1022} << 52);
+            std::memcpy(&m, &bits, sizeof m);
+        } else {
+            m = std::frexp(len2, &e);  // subnormal
+        }
         const int b = 2 * e - (m >= 0.70710678118654752 ? 1 : 2) + kBuckets / 2;
         return std::clamp(b, 0, kBuckets - 1);
     }
@@ -343,6 +356,7 @@ private:
             f = static_cast<std::int32_t>(faces_.size());
             faces_.push_back({{0, 0, 0}, {-1, -1, -1}, {0.0, 0.0, 0.0}, 0.0, 0, -1});
             falive_.push_back(0);
+            fprev_.insert(fprev_.end(), {-1, -1, -1});
         }
         faces_[f].v = {a, b, c};
         for (int k = 0; k < 3; ++k) count_edge(faces_[f].v[k], faces_[f].v[(k + 1) % 3], +1);
@@ -363,7 +377,10 @@ private:
         const Tri& t = faces_[f].v;
         for (int k = 0; k < 3; ++k) {
             if (face_head_[t[k]] < 0) adt_.insert(t[k], x(t[k]));  // joins the front
-            faces_[f].next[k] = face_head_[t[k]];
+            const std::int32_t head = face_head_[t[k]];
+            faces_[f].next[k] = head;
+            fprev_[3 * f + k] = -1;
+            if (head >= 0) fprev_[head] = 3 * f + k;
             face_head_[t[k]] = 3 * f + k;
         }
         ++front_size_;
@@ -373,12 +390,9 @@ private:
     void remove_face(std::int32_t f) {
         const Tri t = faces_[f].v;
         for (int k = 0; k < 3; ++k) {
-            std::int32_t* link = &face_head_[t[k]];
-            while (*link != 3 * f + k) {
-                FM_CHECK(*link >= 0);
-                link = &faces_[*link / 3].next[*link % 3];
-            }
-            *link = faces_[f].next[k];
+            const std::int32_t prev = fprev_[3 * f + k], next = faces_[f].next[k];
+            (prev < 0 ? face_head_[t[k]] : faces_[prev / 3].next[prev % 3]) = next;
+            if (next >= 0) fprev_[next] = prev;
             if (face_head_[t[k]] < 0) adt_.remove(t[k]);  // leaves the front
             count_edge(t[k], t[(k + 1) % 3], -1);
         }
@@ -481,6 +495,7 @@ private:
     struct StarFace {
         std::int32_t f, u, w;
         V3 U, W, n;
+        bool w_alone;  // w is the u of no face of the star (never in a closed fan)
     };
     struct Base {
         std::int32_t f = -1;
@@ -493,8 +508,18 @@ private:
         V3 xm, xo, xc;    // centre, reference point, Eq. 11 centre
         double max_b = 0;  // max |x_ck B_ki|
         std::int32_t star_begin[4] = {0, 0, 0, 0};  // star of a_i: stars_[star_begin[i], [i + 1])
+        std::int32_t wing_begin[4] = {0, 0, 0, 0};  // wings of edge a_i a_j: wings_[...]
+        V3 e[3];          // unit direction of the base edge a_i a_j (j = i + 1 mod 3)
     };
     std::vector<StarFace> stars_;  // the stars of the current base's nodes
+    /// A front face on base edge a_i a_j other than the base: its third node and the part of
+    /// (node - A_i) normal to the edge, for the dihedral angle test of new faces.
+    struct Wing {
+        std::int32_t v;
+        V3 vp;
+        double vpl2;
+    };
+    std::vector<Wing> wings_;
 
     // ---- exact validity (predicates decide) -----------------------------------------------
     /// True when the closed segment (s0, s1) meets the closed triangle (t0, t1, t2) anywhere
@@ -719,23 +744,19 @@ private:
                 }
             }
             if (face_new) {
-                const V3 e = (Aj - Ai).normalized();
+                const V3& e = bk.e[i];
                 V3 up = P - Ai;
                 up -= up.dot(e) * e;
                 const double upl = up.norm();
                 if (upl == 0.0) return false;
                 up /= upl;
                 // Face-face (dihedral) angle test against every front face on edge A_ki A_kj
-                for (int k = s0; k < s1; ++k) {
-                    const StarFace& sf = star[k];
-                    if (sf.f == bk.f || (sf.u != aj && sf.w != aj)) continue;
-                    const std::int32_t bq = sf.u != aj ? sf.u : sf.w;
-                    if (bq == q) continue;
-                    V3 vp = (sf.u != aj ? sf.U : sf.W) - Ai;
-                    vp -= vp.dot(e) * e;
+                for (int k = bk.wing_begin[i]; k < bk.wing_begin[i + 1]; ++k) {
+                    const Wing& wg = wings_[static_cast<std::size_t>(k)];
+                    if (wg.v == q) continue;
                     // cos(angle) = up . vp / |vp| >= cos_min, squared (cos_min > 0): no root
-                    const double vpl2 = vp.squaredNorm(), c = up.dot(vp);
-                    if (vpl2 == 0.0 || (c > 0.0 && c * c >= cos2_min_ * vpl2)) return false;
+                    const double c = up.dot(wg.vp);
+                    if (wg.vpl2 == 0.0 || (c > 0.0 && c * c >= cos2_min_ * wg.vpl2)) return false;
                 }
                 // Edge-face angle test: the new face against the front edges at A_ki, A_kj
                 const V3 nf = (Aj - Ai).cross(P - Ai).normalized();
@@ -743,10 +764,12 @@ private:
                     const V3& O = end == 0 ? Ai : Aj;
                     const V3 r1 = (end == 0 ? Aj : Ai) - O, r2 = P - O;
                     const V3 c12 = r1.cross(r2);
+                    // Every front edge at O: (O, u) of each face of its star, and (O, w)
+                    // where no face has it as u (a closed fan has each edge as both).
                     const int b0 = bk.star_begin[(i + end) % 3], b1 = bk.star_begin[(i + end) % 3 + 1];
                     for (int k = b0; k < b1; ++k) {
                         const StarFace& sf = star[k];
-                        for (int side = 0; side < 2; ++side) {
+                        for (int side = 0; side < (sf.w_alone ? 2 : 1); ++side) {
                             const std::int32_t xq = side == 0 ? sf.u : sf.w;
                             if (xq == ai || xq == aj || xq == q) continue;
                             // d unnormalised: |sin| = |d . nf| / |d| < sin_min, squared; the
@@ -928,10 +951,32 @@ RegionMesher::Base RegionMesher::make_base(std::int32_t f, bool active_only) {
         for (std::int32_t k = face_head_[t[i]]; k >= 0; k = faces_[k / 3].next[k % 3]) {
             const std::int32_t g = k / 3, c = k % 3;
             const std::int32_t u = faces_[g].v[(c + 1) % 3], w = faces_[g].v[(c + 2) % 3];
-            stars_.push_back({g, u, w, x(u), x(w), face_normal(g)});
+            stars_.push_back({g, u, w, x(u), x(w), face_normal(g), false});
         }
     }
     bk.star_begin[3] = static_cast<std::int32_t>(stars_.size());
+    // What the angle tests of step 4 read for every candidate but do not depend on it: the
+    // base edges' directions, the wings of each edge, and which front edges at a_i the u
+    // nodes of the star miss (every front edge at a_i is (a_i, u) or (a_i, w) of a face).
+    wings_.clear();
+    for (int i = 0; i < 3; ++i) {
+        const std::int32_t aj = t[(i + 1) % 3];
+        const V3& Ai = bk.A[i];
+        bk.e[i] = (bk.A[(i + 1) % 3] - Ai).normalized();
+        bk.wing_begin[i] = static_cast<std::int32_t>(wings_.size());
+        const int s0 = bk.star_begin[i], s1 = bk.star_begin[i + 1];
+        const std::int32_t stamp = next_mark();
+        for (int k = s0; k < s1; ++k) mark_[stars_[static_cast<std::size_t>(k)].u] = stamp;
+        for (int k = s0; k < s1; ++k) {
+            StarFace& sf = stars_[static_cast<std::size_t>(k)];
+            sf.w_alone = mark_[sf.w] != stamp;
+            if (sf.f == f || (sf.u != aj && sf.w != aj)) continue;
+            V3 vp = (sf.u != aj ? sf.U : sf.W) - Ai;
+            vp -= vp.dot(bk.e[i]) * bk.e[i];
+            wings_.push_back({sf.u != aj ? sf.u : sf.w, vp, vp.squaredNorm()});
+        }
+    }
+    bk.wing_begin[3] = static_cast<std::int32_t>(wings_.size());
     bk.n = face_normal(f);
     bk.area = faces_[f].area;
     // Eq. 8 from the nodes on the n-th level front (§3.1.5); other nodes fall back on the
@@ -1039,16 +1084,23 @@ bool RegionMesher::try_base(std::int32_t f, bool active_only, bool relaxed) {
             const double d = (x(q) - bk.xc).norm();
             if (!small_front && (d > r || d <= rmin)) continue;
             if (core::orient3d(p(bk.a[0]), p(bk.a[1]), p(bk.a[2]), p(q)) != -1) continue;
-            const double eps = core::tet_skewness(bk.A[0], bk.A[1], bk.A[2], x(q));
             if (relaxed) {
                 centroid += x(q);
                 ++ncent;
-                cands.push_back({eps, d, q});
+            }
+            cands.push_back({0.0, d, q});
+        }
+        if (cands.size() < 2) return;  // nothing to order
+        for (Cand& c : cands) {
+            const double d = c.key1;
+            const double eps = core::tet_skewness(bk.A[0], bk.A[1], bk.A[2], x(c.id));
+            if (relaxed) {
+                c.key0 = eps;  // then d
             } else {
                 // w: the first sphere of Eq. 11 holding q; Eq. 12 orders within it
-                const double w = d <= r1 ? 1.0 : std::max(
+                c.key0 = d <= r1 ? 1.0 : std::max(
                     1.0, std::ceil(std::log(std::max(d / bk.h, 1e-300)) / std::log(1.1) - 1e-12));
-                cands.push_back({w, (eps + 0.1) * d, q});
+                c.key1 = (eps + 0.1) * d;
             }
         }
         std::sort(cands.begin(), cands.end(), [](const Cand& l, const Cand& r2) {
