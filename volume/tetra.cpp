@@ -20,6 +20,7 @@
 
 #include "pipeline/core/adt.h"
 #include "pipeline/core/error.h"
+#include "pipeline/core/huge_pages.h"
 #include "pipeline/core/morton.h"
 #include "pipeline/core/predicates.h"
 #include "pipeline/core/quality.h"
@@ -169,22 +170,22 @@ private:
     std::vector<std::int32_t> global_of_local_;
 
     // nodes (flat, int32 ids)
-    std::vector<double> xyz_;
-    std::vector<std::int32_t> level_;         // front level at creation + 1 (0 = surface)
-    std::vector<std::int32_t> setup_stamp_;   // last front number that set this node up, -1
-    std::vector<double> normal_;              // Eq. 3, 3 per node
-    std::vector<double> h_;                   // h'_o of Eq. 6 (smoothed), 0 = never set
-    std::vector<double> rs_;                  // r'_s of Eq. 7
-    std::vector<std::int32_t> remesh_count_;  // §3.2
-    std::vector<std::int32_t> face_head_;     // first corner 3 f + c of the node's front faces
-    std::vector<std::int32_t> tet_head_;      // first corner 4 t + c of the node's tets
-    std::vector<std::int32_t> mark_;          // scratch stamps
+    core::HugeVector<double> xyz_;
+    core::HugeVector<std::int32_t> level_;         // front level at creation + 1 (0 = surface)
+    core::HugeVector<std::int32_t> setup_stamp_;   // last front number that set this node up, -1
+    core::HugeVector<double> normal_;              // Eq. 3, 3 per node
+    core::HugeVector<double> h_;                   // h'_o of Eq. 6 (smoothed), 0 = never set
+    core::HugeVector<double> rs_;                  // r'_s of Eq. 7
+    core::HugeVector<std::int32_t> remesh_count_;  // §3.2
+    core::HugeVector<std::int32_t> face_head_;     // first corner 3 f + c of the node's front faces
+    core::HugeVector<std::int32_t> tet_head_;      // first corner 4 t + c of the node's tets
+    core::HugeVector<std::int32_t> mark_;          // scratch stamps
     std::int32_t mark_value_ = 0;
     struct NodeCode {
         std::int32_t stamp;   // valid when it is the call's stamp
         std::uint16_t code;
     };
-    std::vector<NodeCode> node_code_;         // is_valid_tet's per-node codes
+    core::HugeVector<NodeCode> node_code_;         // is_valid_tet's per-node codes
     std::int32_t code_stamp_value_ = 0;
 
     // front triangles (normal points into the unmeshed part of the region)
@@ -198,9 +199,9 @@ private:
         std::int32_t failed;      // generation at which the face last failed, -1
     };
     static_assert(sizeof(FaceRec) == 64, "one cache line per front face");
-    std::vector<FaceRec> faces_;
-    std::vector<std::uint8_t> falive_;
-    std::vector<std::int32_t> fprev_;        // per corner: previous corner in the node's list, -1
+    core::HugeVector<FaceRec> faces_;
+    core::HugeVector<std::uint8_t> falive_;
+    core::HugeVector<std::int32_t> fprev_;        // per corner: previous corner in the node's list, -1
     std::vector<std::int32_t> free_faces_;
     std::int32_t front_size_ = 0;
     core::Adt adt_;                           // the front nodes (§3.1.1)
@@ -215,10 +216,10 @@ private:
     int top_bucket_ = 0;
 
     // tetrahedra
-    std::vector<Tet> tv_;
-    std::vector<std::int32_t> tnext_;         // 4 per tet
-    std::vector<std::int32_t> tfront_;        // front number at creation
-    std::vector<std::uint8_t> talive_;
+    core::HugeVector<Tet> tv_;
+    core::HugeVector<std::int32_t> tnext_;         // 4 per tet
+    core::HugeVector<std::int32_t> tfront_;        // front number at creation
+    core::HugeVector<std::uint8_t> talive_;
     std::int64_t alive_tets_ = 0;
 
     // run state
@@ -1399,8 +1400,8 @@ RegionResult RegionMesher::run() {
     res.region = region_;
     res.boundary_nodes = boundary_nodes_;
     res.global_of_local = global_of_local_;
-    res.xyz = xyz_;
-    res.level = level_;
+    res.xyz.assign(xyz_.begin(), xyz_.end());
+    res.level.assign(level_.begin(), level_.end());
     res.tets.reserve(static_cast<std::size_t>(alive_tets_));
     for (std::size_t t = 0; t < tv_.size(); ++t)
         if (talive_[t]) res.tets.push_back(tv_[t]);

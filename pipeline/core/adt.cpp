@@ -15,9 +15,6 @@ namespace {
 
 constexpr double infinity = std::numeric_limits<double>::infinity();
 
-// Key dimension: an item's key is the low corner of its box (the point itself for points).
-constexpr int K = 3;
-
 // squared_distance of a stored key (lo = key[0..2], hi = key[3..5]) to p; the same value.
 inline double key_distance2(const double* key, const Eigen::Vector3d& p) {
     double d2 = 0.0;
@@ -200,7 +197,8 @@ void Adt::insert(std::int32_t id, const AdtBox& box) {
 }
 
 // Bonet & Peraire: descend from the root bisecting the node's region of key space in key
-// coordinate depth mod K and hang the node at the first empty child. Keys outside the domain
+// coordinate depth mod 3 (an item's key is the low corner of its box, the point itself for
+// points) and hang the node at the first empty child. Keys outside the domain
 // are clamped onto it to choose a branch. The region starts as the domain and each level
 // halves it at split = 0.5 lo + 0.5 hi, which lies in [lo, hi]. Every node on the way gets
 // its subtree bounds widened to the new item's.
@@ -209,30 +207,34 @@ void Adt::insert_key(std::int32_t node) {
         root_ = node;
         return;
     }
-    const Node& item = nodes_[static_cast<std::size_t>(node)];
+    Node* const pool = nodes_.data();
     float item_bound[6];
-    std::copy(item.bound, item.bound + 6, item_bound);
-    double key[K], lo[K], hi[K];
-    for (int k = 0; k < K; ++k) {
-        key[k] = std::clamp(item.key[k], domain_.lo[k], domain_.hi[k]);
-        lo[k] = domain_.lo[k];
-        hi[k] = domain_.hi[k];
-    }
+    std::copy(pool[node].bound, pool[node].bound + 6, item_bound);
+    const double* key = pool[node].key;
+    const double kx = std::clamp(key[0], domain_.lo[0], domain_.hi[0]);
+    const double ky = std::clamp(key[1], domain_.lo[1], domain_.hi[1]);
+    const double kz = std::clamp(key[2], domain_.lo[2], domain_.hi[2]);
+    double lx = domain_.lo[0], hx = domain_.hi[0], ly = domain_.lo[1], hy = domain_.hi[1];
+    double lz = domain_.lo[2], hz = domain_.hi[2];
     std::int32_t at = root_;
-    int k = 0;
-    while (true) {
-        const double split = 0.5 * lo[k] + 0.5 * hi[k];
-        const int side = key[k] < split ? 0 : 1;
-        Node& parent = nodes_[static_cast<std::size_t>(at)];
+    // One level on one axis: true when the node was hung there. The axes x, y, z follow one
+    // another in the unrolled loop below; the region bounds stay in registers.
+    auto level = [&](double k, double& lo, double& hi) {
+        const double split = 0.5 * lo + 0.5 * hi;
+        const int side = k < split ? 0 : 1;
+        Node& parent = pool[at];
         widen_bound(parent.bound, item_bound);
-        if (parent.child[side] < 0) {
+        const std::int32_t child = parent.child[side];
+        if (child < 0) {
             parent.child[side] = node;
-            nodes_[static_cast<std::size_t>(node)].parent = at;
-            return;
+            pool[node].parent = at;
+            return true;
         }
-        (side == 0 ? hi[k] : lo[k]) = split;
-        at = parent.child[side];
-        if (++k == K) k = 0;
+        (side == 0 ? hi : lo) = split;
+        at = child;
+        return false;
+    };
+    while (!level(kx, lx, hx) && !level(ky, ly, hy) && !level(kz, lz, hz)) {
     }
 }
 
@@ -300,7 +302,7 @@ void Adt::reserve(std::int32_t items) {
 }
 
 void Adt::compact() {
-    std::vector<Node> ordered;
+    HugeVector<Node> ordered;
     ordered.reserve(static_cast<std::size_t>(size_));
     std::vector<std::int32_t> new_index(nodes_.size(), -1);
     // Pre-order with the first child next to its parent: a subtree occupies one index range.

@@ -23,6 +23,8 @@
 
 #include <Eigen/Core>
 
+#include "pipeline/core/huge_pages.h"
+
 namespace frontmesh::core {
 
 /// Closed axis-aligned box; a point is a box with lo == hi. Coordinates in mm.
@@ -216,8 +218,8 @@ private:
 
     AdtBox domain_;
     AdtItems items_;
-    std::vector<Node> nodes_;               // pool, addressed by int32
-    std::vector<std::int32_t> node_of_id_;  // id -> node, -1 absent
+    HugeVector<Node> nodes_;                // pool, addressed by int32 (huge pages when large)
+    HugeVector<std::int32_t> node_of_id_;   // id -> node, -1 absent
     std::int32_t root_ = -1;
     std::int32_t free_head_ = -1;
     std::int32_t size_ = 0;
