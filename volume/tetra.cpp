@@ -933,13 +933,11 @@ void RegionMesher::setup_level() {
             const double R = 3.0 * rs[j];
             const double R2 = R * R;
             const V3 Nj = node_normal(j);
-            const double* pj = p(j);
+            const V3 Xj = x(j);
             for (std::int32_t i : ids) {
                 if (!(rs[j] < rs[i])) continue;
-                // Adt::query_sphere's test: (dx^2 + dy^2) + dz^2 <= R^2
-                const double* pi = p(i);
-                const double dx = pi[0] - pj[0], dy = pi[1] - pj[1], dz = pi[2] - pj[2];
-                if (!((dx * dx + dy * dy) + dz * dz <= R2)) continue;
+                // Adt::query_sphere's own test
+                if (!(core::squared_distance(core::AdtBox::of_point(x(i)), Xj) <= R2)) continue;
                 if (node_normal(i).dot(Nj) >= 0.5) continue;  // angle must exceed 60 degrees
                 const double d = (x(i) - x(j)).norm();
                 if (d > R || d == 0.0) continue;
