@@ -25,67 +25,55 @@ inline double key_distance2(const double* key, const Eigen::Vector3d& p) {
     return d2;
 }
 
-// The float next to the finite float f towards -infinity (down) or +infinity (up), as
-// std::nextafter gives it, from its bits: the libm call was a tenth of an insertion.
-inline float float_step(float f, bool up) {
-    if (f == 0.0f) return up ? std::numeric_limits<float>::denorm_min()
-                             : -std::numeric_limits<float>::denorm_min();
-    std::uint32_t bits;
-    std::memcpy(&bits, &f, sizeof bits);
-    // Away from zero the magnitude grows (bits + 1), towards zero it shrinks (bits - 1).
-    bits += ((f > 0.0f) == up) ? 1u : static_cast<std::uint32_t>(-1);
-    std::memcpy(&f, &bits, sizeof f);
-    return f;
+// Node bounds are stored as (lo x, y, z, -hi x, y, z): the union of two is one elementwise
+// min, a box test one elementwise <=.
+
+// The stored bounds of an item box (lo x, y, z, hi x, y, z).
+inline void set_bound(double* bound, const double* key) {
+    std::copy(key, key + 3, bound);
+    for (int a = 0; a < 3; ++a) bound[a + 3] = -key[a + 3];
 }
 
-// The largest float <= x and the smallest float >= x (infinite beyond the float range), so a
-// float box built from them contains the double box it stands for.
-inline float float_below(double x) {
-    constexpr double max_float = std::numeric_limits<float>::max();
-    if (x > max_float) return std::numeric_limits<float>::max();
-    if (!(x >= -max_float)) return -std::numeric_limits<float>::infinity();
-    const float f = static_cast<float>(x);
-    return static_cast<double>(f) > x ? float_step(f, false) : f;
-}
-inline float float_above(double x) {
-    constexpr double max_float = std::numeric_limits<float>::max();
-    if (x < -max_float) return -std::numeric_limits<float>::max();
-    if (!(x <= max_float)) return std::numeric_limits<float>::infinity();
-    const float f = static_cast<float>(x);
-    return static_cast<double>(f) < x ? float_step(f, true) : f;
+// bound := min(bound, other) elementwise (the union of the two boxes); stored only when it
+// grows, which leaves fewer dirty cache lines on the insertion path.
+inline void widen_bound(double* bound, const double* other) {
+    const __m128d b01 = _mm_loadu_pd(bound), b23 = _mm_loadu_pd(bound + 2), b45 = _mm_loadu_pd(bound + 4);
+    const __m128d o01 = _mm_loadu_pd(other), o23 = _mm_loadu_pd(other + 2), o45 = _mm_loadu_pd(other + 4);
+    const __m128d grows = _mm_or_pd(_mm_or_pd(_mm_cmplt_pd(o01, b01), _mm_cmplt_pd(o23, b23)),
+                                    _mm_cmplt_pd(o45, b45));
+    if (_mm_movemask_pd(grows) == 0) return;
+    _mm_storeu_pd(bound, _mm_min_pd(b01, o01));
+    _mm_storeu_pd(bound + 2, _mm_min_pd(b23, o23));
+    _mm_storeu_pd(bound + 4, _mm_min_pd(b45, o45));
 }
 
-// The stored bounds of an item box: lo rounded down, -(hi rounded up), as Node::bound.
-void set_bound(float* bound, const double* lo, const double* hi) {
-    for (int a = 0; a < 3; ++a) {
-        bound[a] = float_below(lo[a]);
-        bound[a + 3] = -float_above(hi[a]);
-    }
-}
+// The bound of no item: lo = +inf, -hi = +inf, met by no query and widened by any item.
+inline void set_empty(double* bound) { std::fill(bound, bound + 6, infinity); }
 
-// bound := min(bound, item) elementwise (the union of the two boxes); stored only when it
-// grows, which leaves fewer dirty cache lines on the insertion path. The two 4-float halves
-// overlap in elements 2 and 3, on which they agree.
-inline void widen_bound(float* bound, const float* item) {
-    const __m128 a = _mm_loadu_ps(bound), b = _mm_loadu_ps(bound + 2);
-    const __m128 ia = _mm_loadu_ps(item), ib = _mm_loadu_ps(item + 2);
-    if (_mm_movemask_ps(_mm_or_ps(_mm_cmplt_ps(ia, a), _mm_cmplt_ps(ib, b))) == 0) return;
-    _mm_storeu_ps(bound + 2, _mm_min_ps(b, ib));
-    _mm_storeu_ps(bound, _mm_min_ps(a, ia));
-}
-
-// A box query in the form of Node::bound: the bounds (lo, -hi) meet the closed query box when
-// lo <= query hi and -hi <= -query lo on every axis, i.e. (lo x, y, z, -hi x) <= q0 and
-// (lo z, -hi x, y, z) <= q1 elementwise.
+// A closed query box against item keys (lo x, y, z, hi x, y, z) and node bounds (lo x, y, z,
+// -hi x, y, z), in doubles, two axes at a time. Keys: (lo x, lo y) <= (hi x, hi y) of the
+// query, (lo z, query lo x) <= (query hi z, hi x), (query lo y, query lo z) <= (hi y, hi z).
+// Bounds: (lo x, y, z, -hi x, y, z) <= (query hi x, y, z, -query lo x, y, z).
 struct BoxTest {
-    __m128 q0, q1;
-    BoxTest(const float* qlo, const float* qhi)
-        : q0(_mm_setr_ps(qhi[0], qhi[1], qhi[2], -qlo[0])),
-          q1(_mm_setr_ps(qhi[2], -qlo[0], -qlo[1], -qlo[2])) {}
-    bool meets(const float* bound) const {
-        const __m128 a = _mm_cmple_ps(_mm_loadu_ps(bound), q0);
-        const __m128 b = _mm_cmple_ps(_mm_loadu_ps(bound + 2), q1);
-        return _mm_movemask_ps(_mm_and_ps(a, b)) == 0xF;
+    __m128d qhi01, qhi2, qlo0, qlo12;  // keys
+    __m128d b01, b23, b45;             // bounds
+    explicit BoxTest(const AdtBox& query)
+        : qhi01(_mm_loadu_pd(query.hi.data())), qhi2(_mm_set_sd(query.hi[2])),
+          qlo0(_mm_set1_pd(query.lo[0])), qlo12(_mm_loadu_pd(query.lo.data() + 1)),
+          b01(_mm_setr_pd(query.hi[0], query.hi[1])), b23(_mm_setr_pd(query.hi[2], -query.lo[0])),
+          b45(_mm_setr_pd(-query.lo[1], -query.lo[2])) {}
+    bool key_meets(const double* key) const {
+        const __m128d k23 = _mm_loadu_pd(key + 2);
+        const __m128d m0 = _mm_cmple_pd(_mm_loadu_pd(key), qhi01);
+        const __m128d m1 = _mm_cmple_pd(_mm_move_sd(qlo0, k23), _mm_move_sd(k23, qhi2));
+        const __m128d m2 = _mm_cmple_pd(qlo12, _mm_loadu_pd(key + 4));
+        return _mm_movemask_pd(_mm_and_pd(_mm_and_pd(m0, m1), m2)) == 3;
+    }
+    bool bound_meets(const double* bound) const {
+        const __m128d m0 = _mm_cmple_pd(_mm_loadu_pd(bound), b01);
+        const __m128d m1 = _mm_cmple_pd(_mm_loadu_pd(bound + 2), b23);
+        const __m128d m2 = _mm_cmple_pd(_mm_loadu_pd(bound + 4), b45);
+        return _mm_movemask_pd(_mm_and_pd(_mm_and_pd(m0, m1), m2)) == 3;
     }
 };
 
@@ -98,9 +86,7 @@ template <class Node>
 double bound_distance2(const Node& n, const Eigen::Vector3d& p) {
     double d2 = 0.0;
     for (int a = 0; a < 3; ++a) {
-        const double d = std::max(std::max(static_cast<double>(n.bound[a]) - p[a],
-                                           p[a] + static_cast<double>(n.bound[a + 3])),
-                                  0.0);
+        const double d = std::max(std::max(n.bound[a] - p[a], p[a] + n.bound[a + 3]), 0.0);
         d2 += d * d;
     }
     return d2;
@@ -146,22 +132,122 @@ bool has_nan(const Eigen::Vector3d& v) { return v.array().isNaN().any(); }
 
 }  // namespace
 
+namespace {
+
+// A subtree deeper than this stops splitting (64 halvings per axis, beyond which a region of
+// doubles hardly shrinks): its leaf chains buckets instead.
+constexpr std::int32_t kMaxDepth = 192;
+
+}  // namespace
+
 Adt::Adt(const AdtBox& domain, AdtItems items)
     : domain_(domain), items_(items) {
-    static_assert(sizeof(Node) == 88, "the node size is documented in adt.h");
+    static_assert(sizeof(Node) == 64, "the node size is documented in adt.h");
     if (!domain.is_valid())
         FM_THROW(InputError, "ADT: root domain must be finite with lo <= hi on every axis");
 }
 
-std::int32_t Adt::allocate_node() {
-    if (free_head_ >= 0) {
-        const std::int32_t node = free_head_;
-        free_head_ = nodes_[static_cast<std::size_t>(node)].child[0];
-        return node;
-    }
+std::int32_t Adt::new_node(std::int32_t depth) {
     FM_CHECK(nodes_.size() < static_cast<std::size_t>(std::numeric_limits<std::int32_t>::max()));
-    nodes_.emplace_back();
+    Node n;
+    set_empty(n.bound);
+    n.child[0] = n.child[1] = -1;
+    n.bucket = -1;
+    n.depth = depth;
+    nodes_.push_back(n);
     return static_cast<std::int32_t>(nodes_.size() - 1);
+}
+
+std::int32_t Adt::new_bucket(std::int32_t node) {
+    std::int32_t b;
+    if (free_bucket_ >= 0) {
+        b = free_bucket_;
+        free_bucket_ = buckets_[static_cast<std::size_t>(b)].next;
+    } else {
+        FM_CHECK(buckets_.size() <
+                 static_cast<std::size_t>(std::numeric_limits<std::int32_t>::max() / kLeafItems));
+        buckets_.emplace_back();
+        b = static_cast<std::int32_t>(buckets_.size() - 1);
+    }
+    Bucket& k = buckets_[static_cast<std::size_t>(b)];
+    k.count = 0;
+    k.next = k.prev = -1;
+    k.node = node;
+    return b;
+}
+
+void Adt::free_bucket(std::int32_t bucket) {
+    Bucket& k = buckets_[static_cast<std::size_t>(bucket)];
+    k.count = 0;
+    k.prev = -1;
+    k.node = -1;
+    k.next = free_bucket_;
+    free_bucket_ = bucket;
+}
+
+void Adt::append(std::int32_t bucket, const Item& item) {
+    Bucket& k = buckets_[static_cast<std::size_t>(bucket)];
+    const std::int32_t s = k.count++;
+    std::copy(item.key, item.key + 6, k.key[s]);
+    k.id[s] = item.id;
+    slot_of_id_[static_cast<std::size_t>(item.id)] = bucket * kLeafItems + s;
+}
+
+// Makes `node` (of region [region_lo, region_hi], its depth set) the subtree of the items
+// scratch_[first, last): a leaf when they fit in a bucket or cannot be told apart (identical
+// clamped keys, or the depth limit), else a split at the region's midpoint in key coordinate
+// depth mod 3, the rule insertion descends by, with each non-empty half filled the same way.
+// Items keep their order within each half. The node's bound becomes exact.
+void Adt::fill(std::int32_t node, const double* region_lo, const double* region_hi,
+               std::size_t first, std::size_t last) {
+    const std::int32_t depth = nodes_[static_cast<std::size_t>(node)].depth;
+    auto clamped = [&](const Item& item, int a) {
+        return std::clamp(item.key[a], domain_.lo[a], domain_.hi[a]);
+    };
+    double bound[6];
+    set_empty(bound);
+    bool same = true;
+    for (std::size_t i = first; i < last; ++i) {
+        const Item& item = scratch_[i];
+        double item_bound[6];
+        set_bound(item_bound, item.key);
+        widen_bound(bound, item_bound);
+        for (int a = 0; a < 3 && same; ++a) same = clamped(item, a) == clamped(scratch_[first], a);
+    }
+    std::copy(bound, bound + 6, nodes_[static_cast<std::size_t>(node)].bound);
+    if (last - first <= static_cast<std::size_t>(kLeafItems) || same || depth >= kMaxDepth) {
+        std::int32_t b = new_bucket(node);
+        nodes_[static_cast<std::size_t>(node)].bucket = b;
+        for (std::size_t i = first; i < last; ++i) {
+            if (buckets_[static_cast<std::size_t>(b)].count == kLeafItems) {
+                const std::int32_t next = new_bucket(node);
+                buckets_[static_cast<std::size_t>(b)].next = next;
+                buckets_[static_cast<std::size_t>(next)].prev = b;
+                b = next;
+            }
+            append(b, scratch_[i]);
+        }
+        return;
+    }
+    const int axis = depth % 3;
+    const double split = 0.5 * region_lo[axis] + 0.5 * region_hi[axis];
+    const auto begin = scratch_.begin() + static_cast<std::ptrdiff_t>(first);
+    const auto end = scratch_.begin() + static_cast<std::ptrdiff_t>(last);
+    const std::size_t mid = first + static_cast<std::size_t>(
+        std::stable_partition(begin, end, [&](const Item& item) { return clamped(item, axis) < split; }) -
+        begin);
+    nodes_[static_cast<std::size_t>(node)].bucket = -1;
+    for (int side = 0; side < 2; ++side) {
+        const std::size_t lo = side == 0 ? first : mid, hi = side == 0 ? mid : last;
+        if (lo == hi) continue;
+        double child_lo[3], child_hi[3];
+        std::copy(region_lo, region_lo + 3, child_lo);
+        std::copy(region_hi, region_hi + 3, child_hi);
+        (side == 0 ? child_hi : child_lo)[axis] = split;
+        const std::int32_t child = new_node(depth + 1);
+        nodes_[static_cast<std::size_t>(node)].child[side] = child;
+        fill(child, child_lo, child_hi, lo, hi);
+    }
 }
 
 void Adt::insert(std::int32_t id, const Eigen::Vector3d& p) {
@@ -170,6 +256,13 @@ void Adt::insert(std::int32_t id, const Eigen::Vector3d& p) {
     insert(id, AdtBox::of_point(p));
 }
 
+// Bonet & Peraire: descend from the root bisecting the node's region of key space in key
+// coordinate depth mod 3 (an item's key is the low corner of its box, the point itself for
+// points). Keys outside the domain are clamped onto it to choose a branch. The region starts
+// as the domain and each level halves it at split = 0.5 lo + 0.5 hi, which lies in [lo, hi].
+// Every node on the way gets its subtree bounds widened to the new item's. The item joins
+// the leaf it reaches (a new leaf in an empty half); a full leaf is filled anew with its
+// items and the new one, which splits it.
 void Adt::insert(std::int32_t id, const AdtBox& box) {
     FM_CHECK(id >= 0);
     FM_CHECK(!contains(id));
@@ -178,189 +271,261 @@ void Adt::insert(std::int32_t id, const AdtBox& box) {
                                  " is not finite or has lo > hi on some axis");
     FM_CHECK(items_ == AdtItems::boxes || box.lo == box.hi);
 
-    const std::int32_t node = allocate_node();
-    Node& n = nodes_[static_cast<std::size_t>(node)];
+    Item item;
     for (int a = 0; a < 3; ++a) {
-        n.key[a] = box.lo[a];
-        n.key[a + 3] = box.hi[a];
+        item.key[a] = box.lo[a];
+        item.key[a + 3] = box.hi[a];
     }
-    set_bound(n.bound, n.key, n.key + 3);
-    n.id = id;
-    n.parent = -1;
-    n.child[0] = n.child[1] = -1;
-    if (static_cast<std::size_t>(id) >= node_of_id_.size())
-        node_of_id_.resize(static_cast<std::size_t>(id) + 1, -1);
-    node_of_id_[static_cast<std::size_t>(id)] = node;
+    item.id = id;
+    double item_bound[6];
+    set_bound(item_bound, item.key);
+    if (static_cast<std::size_t>(id) >= slot_of_id_.size())
+        slot_of_id_.resize(static_cast<std::size_t>(id) + 1, -1);
     ++size_;
-
-    insert_key(node);
-}
-
-// Bonet & Peraire: descend from the root bisecting the node's region of key space in key
-// coordinate depth mod 3 (an item's key is the low corner of its box, the point itself for
-// points) and hang the node at the first empty child. Keys outside the domain
-// are clamped onto it to choose a branch. The region starts as the domain and each level
-// halves it at split = 0.5 lo + 0.5 hi, which lies in [lo, hi]. Every node on the way gets
-// its subtree bounds widened to the new item's.
-void Adt::insert_key(std::int32_t node) {
+    auto new_leaf = [&](std::int32_t depth) {
+        const std::int32_t leaf = new_node(depth);
+        const std::int32_t b = new_bucket(leaf);
+        Node& n = nodes_[static_cast<std::size_t>(leaf)];
+        n.bucket = b;
+        std::copy(item_bound, item_bound + 6, n.bound);
+        append(b, item);
+        return leaf;
+    };
     if (root_ < 0) {
-        root_ = node;
+        root_ = new_leaf(0);
         return;
     }
-    Node* const pool = nodes_.data();
-    float item_bound[6];
-    std::copy(pool[node].bound, pool[node].bound + 6, item_bound);
-    const double* key = pool[node].key;
-    const double kx = std::clamp(key[0], domain_.lo[0], domain_.hi[0]);
-    const double ky = std::clamp(key[1], domain_.lo[1], domain_.hi[1]);
-    const double kz = std::clamp(key[2], domain_.lo[2], domain_.hi[2]);
+
+    Node* const pool = nodes_.data();  // no node is allocated during the descent
+    const double kx = std::clamp(item.key[0], domain_.lo[0], domain_.hi[0]);
+    const double ky = std::clamp(item.key[1], domain_.lo[1], domain_.hi[1]);
+    const double kz = std::clamp(item.key[2], domain_.lo[2], domain_.hi[2]);
     double lx = domain_.lo[0], hx = domain_.hi[0], ly = domain_.lo[1], hy = domain_.hi[1];
     double lz = domain_.lo[2], hz = domain_.hi[2];
     std::int32_t at = root_;
-    // One level on one axis: true when the node was hung there. The axes x, y, z follow one
-    // another in the unrolled loop below; the region bounds stay in registers.
+    int empty_side = -1;
+    // One level on one axis: true when the descent ends there, at a leaf (`at`) or at an empty
+    // half of `at` (empty_side). The axes x, y, z follow one another in the unrolled loop
+    // below (the root splits x); the region bounds stay in registers.
     auto level = [&](double k, double& lo, double& hi) {
+        Node& n = pool[at];
+        widen_bound(n.bound, item_bound);
+        if (n.bucket >= 0) return true;
         const double split = 0.5 * lo + 0.5 * hi;
         const int side = k < split ? 0 : 1;
-        Node& parent = pool[at];
-        widen_bound(parent.bound, item_bound);
-        const std::int32_t child = parent.child[side];
+        (side == 0 ? hi : lo) = split;
+        const std::int32_t child = n.child[side];
         if (child < 0) {
-            parent.child[side] = node;
-            pool[node].parent = at;
+            empty_side = side;
             return true;
         }
-        (side == 0 ? hi : lo) = split;
         at = child;
         return false;
     };
     while (!level(kx, lx, hx) && !level(ky, ly, hy) && !level(kz, lz, hz)) {
     }
+    if (empty_side >= 0) {
+        const std::int32_t leaf = new_leaf(pool[at].depth + 1);
+        nodes_[static_cast<std::size_t>(at)].child[empty_side] = leaf;
+        return;
+    }
+    const std::int32_t head = nodes_[static_cast<std::size_t>(at)].bucket;
+    std::int32_t last = head;
+    while (buckets_[static_cast<std::size_t>(last)].next >= 0) last = buckets_[static_cast<std::size_t>(last)].next;
+    if (buckets_[static_cast<std::size_t>(last)].count < kLeafItems) {
+        append(last, item);
+        return;
+    }
+    // A full leaf. A chain (items of one key) whose key the item shares, or a leaf at the
+    // depth limit, grows by a bucket; any other is filled anew, which splits it.
+    const Bucket& first = buckets_[static_cast<std::size_t>(head)];
+    const bool same_key = first.next >= 0 && std::clamp(first.key[0][0], domain_.lo[0], domain_.hi[0]) == kx &&
+                          std::clamp(first.key[0][1], domain_.lo[1], domain_.hi[1]) == ky &&
+                          std::clamp(first.key[0][2], domain_.lo[2], domain_.hi[2]) == kz;
+    if (same_key || nodes_[static_cast<std::size_t>(at)].depth >= kMaxDepth) {
+        const std::int32_t next = new_bucket(at);
+        buckets_[static_cast<std::size_t>(last)].next = next;
+        buckets_[static_cast<std::size_t>(next)].prev = last;
+        append(next, item);
+        return;
+    }
+    scratch_.clear();
+    for (std::int32_t b = head; b >= 0;) {
+        const Bucket& k = buckets_[static_cast<std::size_t>(b)];
+        for (std::int32_t s = 0; s < k.count; ++s) {
+            Item moved;
+            std::copy(k.key[s], k.key[s] + 6, moved.key);
+            moved.id = k.id[s];
+            scratch_.push_back(moved);
+        }
+        const std::int32_t next = k.next;
+        free_bucket(b);
+        b = next;
+    }
+    scratch_.push_back(item);
+    const double region_lo[3] = {lx, ly, lz}, region_hi[3] = {hx, hy, hz};
+    fill(at, region_lo, region_hi, 0, scratch_.size());
 }
 
 bool Adt::remove(std::int32_t id) {
     if (!contains(id)) return false;
-    const std::int32_t node = node_of_id_[static_cast<std::size_t>(id)];
-    node_of_id_[static_cast<std::size_t>(id)] = -1;
-
-    // A leaf below `node` lies in a sub-region of node's region, so its item may move up.
-    std::int32_t leaf = node;
-    while (true) {
-        const Node& l = nodes_[static_cast<std::size_t>(leaf)];
-        if (l.child[0] >= 0)
-            leaf = l.child[0];
-        else if (l.child[1] >= 0)
-            leaf = l.child[1];
-        else
-            break;
+    const std::int32_t slot = slot_of_id_[static_cast<std::size_t>(id)];
+    slot_of_id_[static_cast<std::size_t>(id)] = -1;
+    const std::int32_t b = slot / kLeafItems, s = slot % kLeafItems;
+    // The last item of the leaf takes the slot.
+    std::int32_t last = b;
+    while (buckets_[static_cast<std::size_t>(last)].next >= 0) last = buckets_[static_cast<std::size_t>(last)].next;
+    Bucket& tail = buckets_[static_cast<std::size_t>(last)];
+    const std::int32_t t = --tail.count;
+    if (last != b || t != s) {
+        Bucket& k = buckets_[static_cast<std::size_t>(b)];
+        std::copy(tail.key[t], tail.key[t] + 6, k.key[s]);
+        k.id[s] = tail.id[t];
+        slot_of_id_[static_cast<std::size_t>(k.id[s])] = slot;
     }
-    if (leaf != node) {
-        Node& target = nodes_[static_cast<std::size_t>(node)];
-        const Node& source = nodes_[static_cast<std::size_t>(leaf)];
-        std::copy(source.key, source.key + 6, target.key);
-        target.id = source.id;
-        node_of_id_[static_cast<std::size_t>(target.id)] = node;
+    if (tail.count == 0) {
+        if (tail.prev >= 0) {  // the end of a chain
+            buckets_[static_cast<std::size_t>(tail.prev)].next = -1;
+            free_bucket(last);
+        } else {  // the leaf is empty: no query needs to look at it
+            set_empty(nodes_[static_cast<std::size_t>(tail.node)].bound);
+        }
     }
-
-    Node& l = nodes_[static_cast<std::size_t>(leaf)];
-    if (l.parent < 0) {
-        root_ = -1;
-    } else {
-        Node& parent = nodes_[static_cast<std::size_t>(l.parent)];
-        parent.child[parent.child[0] == leaf ? 0 : 1] = -1;
-    }
-    l.id = -1;
-    l.parent = -1;
-    l.child[0] = free_head_;
-    l.child[1] = -1;
-    free_head_ = leaf;
     --size_;
-    // The subtree bounds on the path are left as they are: they still enclose every item
-    // below, only more loosely; compact() makes them exact again.
+    // The subtree bounds above are left as they are: they still enclose every item below,
+    // only more loosely; compact() makes them exact again.
     return true;
 }
 
 AdtBox Adt::box(std::int32_t id) const {
     FM_CHECK(contains(id));
-    const Node& n = nodes_[static_cast<std::size_t>(node_of_id_[static_cast<std::size_t>(id)])];
-    return {Eigen::Vector3d(n.key[0], n.key[1], n.key[2]),
-            Eigen::Vector3d(n.key[3], n.key[4], n.key[5])};
+    const std::int32_t slot = slot_of_id_[static_cast<std::size_t>(id)];
+    const double* key = buckets_[static_cast<std::size_t>(slot / kLeafItems)].key[slot % kLeafItems];
+    return {Eigen::Vector3d(key[0], key[1], key[2]), Eigen::Vector3d(key[3], key[4], key[5])};
 }
 
 void Adt::clear() {
     nodes_.clear();
-    node_of_id_.clear();
+    buckets_.clear();
+    slot_of_id_.clear();
     root_ = -1;
-    free_head_ = -1;
+    free_bucket_ = -1;
     size_ = 0;
 }
 
 void Adt::reserve(std::int32_t items) {
     if (items <= 0) return;
-    nodes_.reserve(static_cast<std::size_t>(items));
-    node_of_id_.reserve(static_cast<std::size_t>(items));
+    nodes_.reserve(static_cast<std::size_t>(4 * (items / kLeafItems) + 1));
+    buckets_.reserve(static_cast<std::size_t>(2 * (items / kLeafItems) + 1));
+    slot_of_id_.reserve(static_cast<std::size_t>(items));
 }
 
 void Adt::compact() {
-    HugeVector<Node> ordered;
-    ordered.reserve(static_cast<std::size_t>(size_));
-    std::vector<std::int32_t> new_index(nodes_.size(), -1);
-    // Pre-order with the first child next to its parent: a subtree occupies one index range.
-    std::vector<std::int32_t> stack;
+    // Items per subtree, children after parents in pre-order.
+    std::vector<std::int32_t> order, count(nodes_.size(), 0), stack;
     if (root_ >= 0) stack.push_back(root_);
     while (!stack.empty()) {
         const std::int32_t node = stack.back();
         stack.pop_back();
-        new_index[static_cast<std::size_t>(node)] = static_cast<std::int32_t>(ordered.size());
+        order.push_back(node);
+        for (const std::int32_t child : nodes_[static_cast<std::size_t>(node)].child)
+            if (child >= 0) stack.push_back(child);
+    }
+    for (std::size_t i = order.size(); i-- > 0;) {
+        const Node& n = nodes_[static_cast<std::size_t>(order[i])];
+        std::int32_t c = 0;
+        if (n.bucket >= 0) {
+            for (std::int32_t b = n.bucket; b >= 0; b = buckets_[static_cast<std::size_t>(b)].next)
+                c += buckets_[static_cast<std::size_t>(b)].count;
+        } else {
+            for (const std::int32_t child : n.child)
+                if (child >= 0) c += count[static_cast<std::size_t>(child)];
+        }
+        count[static_cast<std::size_t>(order[i])] = c;
+    }
+    Adt out(domain_, items_);
+    out.slot_of_id_ = std::move(slot_of_id_);
+    out.nodes_.reserve(order.size());
+    out.buckets_.reserve(static_cast<std::size_t>(size_ / (kLeafItems / 2) + 1));
+    // The items of an old subtree in walk order.
+    auto gather = [&](auto& self, std::int32_t node) -> void {
         const Node& n = nodes_[static_cast<std::size_t>(node)];
-        ordered.push_back(n);
-        if (n.child[1] >= 0) stack.push_back(n.child[1]);
-        if (n.child[0] >= 0) stack.push_back(n.child[0]);
-    }
-    for (Node& n : ordered) {
-        if (n.parent >= 0) n.parent = new_index[static_cast<std::size_t>(n.parent)];
-        for (std::int32_t& c : n.child)
-            if (c >= 0) c = new_index[static_cast<std::size_t>(c)];
-        node_of_id_[static_cast<std::size_t>(n.id)] =
-            new_index[static_cast<std::size_t>(node_of_id_[static_cast<std::size_t>(n.id)])];
-    }
-    nodes_ = std::move(ordered);
-    root_ = nodes_.empty() ? -1 : 0;
-    free_head_ = -1;
-    // Exact subtree bounds: in pre-order every child comes after its parent.
-    for (std::size_t i = nodes_.size(); i-- > 0;) {
-        Node& n = nodes_[i];
-        set_bound(n.bound, n.key, n.key + 3);
+        if (n.bucket >= 0) {
+            for (std::int32_t b = n.bucket; b >= 0; b = buckets_[static_cast<std::size_t>(b)].next) {
+                const Bucket& k = buckets_[static_cast<std::size_t>(b)];
+                for (std::int32_t s = 0; s < k.count; ++s) {
+                    Item item;
+                    std::copy(k.key[s], k.key[s] + 6, item.key);
+                    item.id = k.id[s];
+                    out.scratch_.push_back(item);
+                }
+            }
+            return;
+        }
         for (const std::int32_t child : n.child)
-            if (child >= 0) widen_bound(n.bound, nodes_[static_cast<std::size_t>(child)].bound);
-    }
+            if (child >= 0) self(self, child);
+    };
+    // The new copy of an old subtree, in pre-order: a leaf where the subtree's items fit in
+    // one bucket (or it is a chain), else a split with the same halves. -1 when empty.
+    auto build = [&](auto& self, std::int32_t node) -> std::int32_t {
+        if (count[static_cast<std::size_t>(node)] == 0) return -1;
+        const Node& n = nodes_[static_cast<std::size_t>(node)];
+        const std::int32_t at = out.new_node(n.depth);
+        if (n.bucket >= 0 || count[static_cast<std::size_t>(node)] <= kLeafItems) {
+            out.scratch_.clear();
+            gather(gather, node);
+            double bound[6];
+            set_empty(bound);
+            std::int32_t b = out.new_bucket(at);
+            out.nodes_[static_cast<std::size_t>(at)].bucket = b;
+            for (const Item& item : out.scratch_) {
+                if (out.buckets_[static_cast<std::size_t>(b)].count == kLeafItems) {
+                    const std::int32_t next = out.new_bucket(at);
+                    out.buckets_[static_cast<std::size_t>(b)].next = next;
+                    out.buckets_[static_cast<std::size_t>(next)].prev = b;
+                    b = next;
+                }
+                out.append(b, item);
+                double item_bound[6];
+                set_bound(item_bound, item.key);
+                widen_bound(bound, item_bound);
+            }
+            std::copy(bound, bound + 6, out.nodes_[static_cast<std::size_t>(at)].bound);
+            return at;
+        }
+        double bound[6];
+        set_empty(bound);
+        for (int side = 0; side < 2; ++side) {
+            const std::int32_t child = n.child[side];
+            const std::int32_t copy = child >= 0 ? self(self, child) : -1;
+            out.nodes_[static_cast<std::size_t>(at)].child[side] = copy;
+            if (copy >= 0) widen_bound(bound, out.nodes_[static_cast<std::size_t>(copy)].bound);
+        }
+        std::copy(bound, bound + 6, out.nodes_[static_cast<std::size_t>(at)].bound);
+        return at;
+    };
+    out.root_ = root_ >= 0 ? build(build, root_) : -1;
+    out.size_ = size_;
+    out.scratch_.clear();
+    nodes_ = std::move(out.nodes_);
+    buckets_ = std::move(out.buckets_);
+    slot_of_id_ = std::move(out.slot_of_id_);
+    root_ = out.root_;
+    free_bucket_ = out.free_bucket_;
 }
 
 void Adt::collect_box(const AdtBox& query, std::vector<std::int32_t>& out_ids) const {
-    // A subtree is skipped when its bounds miss the query; the items of the rest are tested.
-    // The bounds are floats: compared with the query rounded outward to floats, a subtree is
-    // skipped only when its bounds miss the exact query too (visiting more never changes the
-    // result, whose order is the fixed pre-order of the tree).
-    float qlo[3], qhi[3];
-    for (int a = 0; a < 3; ++a) {
-        qlo[a] = float_below(query.lo[a]);
-        qhi[a] = float_above(query.hi[a]);
-    }
-    const BoxTest test(qlo, qhi);
-    auto meets = [&](const Node& n) { return test.meets(n.bound); };
-    // The item's exact box (key) against the query, in doubles, two axes at a time:
-    // (lo x, lo y) <= (hi x, hi y) of the query, (lo z, query lo x) <= (query hi z, hi x),
-    // (query lo y, query lo z) <= (hi y, hi z).
-    const __m128d qhi01 = _mm_loadu_pd(query.hi.data());
-    const __m128d qhi2 = _mm_set_sd(query.hi[2]);
-    const __m128d qlo0 = _mm_set1_pd(query.lo[0]);
-    const __m128d qlo12 = _mm_loadu_pd(query.lo.data() + 1);
+    // A subtree is skipped when its bounds miss the query; the items of the leaves reached
+    // are tested, in the same doubles.
+    const BoxTest test(query);
+    auto meets = [&](const Node& n) { return test.bound_meets(n.bound); };
+    const Bucket* const buckets = buckets_.data();
     auto visit = [&](const Node& n) {
-        const __m128d k23 = _mm_loadu_pd(n.key + 2);
-        const __m128d m0 = _mm_cmple_pd(_mm_loadu_pd(n.key), qhi01);
-        const __m128d m1 = _mm_cmple_pd(_mm_move_sd(qlo0, k23), _mm_move_sd(k23, qhi2));
-        const __m128d m2 = _mm_cmple_pd(qlo12, _mm_loadu_pd(n.key + 4));
-        if (_mm_movemask_pd(_mm_and_pd(_mm_and_pd(m0, m1), m2)) == 3) out_ids.push_back(n.id);
+        for (std::int32_t b = n.bucket; b >= 0; b = buckets[b].next) {
+            const Bucket& k = buckets[b];
+            for (std::int32_t s = 0; s < k.count; ++s)
+                if (test.key_meets(k.key[s])) out_ids.push_back(k.id[s]);
+        }
     };
     bounded_walk(nodes_, root_, meets, visit);
 }
@@ -373,7 +538,6 @@ void Adt::query_box(const AdtBox& query, std::vector<std::int32_t>& out_ids, Adt
     collect_box(query, out_ids);
     if (order == AdtOrder::by_id) std::sort(out_ids.begin(), out_ids.end());
 }
-
 namespace {
 
 // bound_distance2 and key_distance2 with x and y in one SSE2 register: the same operations
@@ -389,15 +553,12 @@ struct SphereTest {
         const double d2 = std::max(std::max(lo_gap2, hi_gap2), 0.0);
         return (_mm_cvtsd_f64(sq) + _mm_cvtsd_f64(_mm_unpackhi_pd(sq, sq))) + d2 * d2;
     }
-    // bounds (lo x, y, z, -hi x, y, z) as floats
-    double bound_distance2(const float* b) const {
-        const __m128 b0 = _mm_loadu_ps(b), b1 = _mm_loadu_ps(b + 2);
-        const __m128d lo01 = _mm_cvtps_pd(b0);
-        const __m128d nhi01 = _mm_cvtps_pd(_mm_shuffle_ps(b1, b1, _MM_SHUFFLE(3, 3, 2, 1)));
-        return finish(_mm_sub_pd(lo01, p01), _mm_add_pd(p01, nhi01),
-                      static_cast<double>(b[2]) - p2, p2 + static_cast<double>(b[5]));
+    // node bounds (lo x, y, z, -hi x, y, z)
+    double bound_distance2(const double* b) const {
+        return finish(_mm_sub_pd(_mm_loadu_pd(b), p01), _mm_add_pd(p01, _mm_loadu_pd(b + 3)),
+                      b[2] - p2, p2 + b[5]);
     }
-    // key (lo x, y, z, hi x, y, z) as doubles
+    // item keys (lo x, y, z, hi x, y, z)
     double key_distance2(const double* k) const {
         return finish(_mm_sub_pd(_mm_loadu_pd(k), p01), _mm_sub_pd(p01, _mm_loadu_pd(k + 3)),
                       k[2] - p2, p2 - k[5]);
@@ -410,8 +571,13 @@ void Adt::collect_sphere(const Eigen::Vector3d& center, double radius2,
                          std::vector<std::int32_t>& out_ids) const {
     const SphereTest test(center);
     auto meets = [&](const Node& n) { return test.bound_distance2(n.bound) <= radius2; };
+    const Bucket* const buckets = buckets_.data();
     auto visit = [&](const Node& n) {
-        if (test.key_distance2(n.key) <= radius2) out_ids.push_back(n.id);
+        for (std::int32_t b = n.bucket; b >= 0; b = buckets[b].next) {
+            const Bucket& k = buckets[b];
+            for (std::int32_t s = 0; s < k.count; ++s)
+                if (test.key_distance2(k.key[s]) <= radius2) out_ids.push_back(k.id[s]);
+        }
     };
     bounded_walk(nodes_, root_, meets, visit);
 }
@@ -452,28 +618,36 @@ void Adt::collect_nearest(const Eigen::Vector3d& p, std::size_t k,
     std::int32_t node = root_;
     while (true) {
         const Node& n = nodes_[static_cast<std::size_t>(node)];
-        const AdtNeighbor candidate{n.id, key_distance2(n.key, p)};
-        if (heap.size() < k) {
-            heap.push_back(candidate);
-            std::push_heap(heap.begin(), heap.end(), closer);
-        } else if (closer(candidate, heap.front())) {
-            std::pop_heap(heap.begin(), heap.end(), closer);
-            heap.back() = candidate;
-            std::push_heap(heap.begin(), heap.end(), closer);
+        bool has_next = false;
+        if (n.bucket >= 0) {
+            for (std::int32_t b = n.bucket; b >= 0; b = buckets_[static_cast<std::size_t>(b)].next) {
+                const Bucket& items = buckets_[static_cast<std::size_t>(b)];
+                for (std::int32_t s = 0; s < items.count; ++s) {
+                    const AdtNeighbor candidate{items.id[s], key_distance2(items.key[s], p)};
+                    if (heap.size() < k) {
+                        heap.push_back(candidate);
+                        std::push_heap(heap.begin(), heap.end(), closer);
+                    } else if (closer(candidate, heap.front())) {
+                        std::pop_heap(heap.begin(), heap.end(), closer);
+                        heap.back() = candidate;
+                        std::push_heap(heap.begin(), heap.end(), closer);
+                    }
+                }
+            }
+        } else {
+            // The nearer child continues in place, the other waits with its bound.
+            Waiting next[2];
+            int count = 0;
+            for (const std::int32_t child : n.child) {
+                if (child < 0) continue;
+                const double d2 = bound_distance2(nodes_[static_cast<std::size_t>(child)], p);
+                if (d2 <= bound()) next[count++] = {child, d2};
+            }
+            if (count == 2 && next[1].distance2 < next[0].distance2) std::swap(next[0], next[1]);
+            if (count == 2) stack.push_back(next[1]);
+            has_next = count > 0;
+            if (has_next) node = next[0].node;
         }
-
-        // The nearer child continues in place, the other waits with its bound.
-        Waiting next[2];
-        int count = 0;
-        for (const std::int32_t child : n.child) {
-            if (child < 0) continue;
-            const double d2 = bound_distance2(nodes_[static_cast<std::size_t>(child)], p);
-            if (d2 <= bound()) next[count++] = {child, d2};
-        }
-        if (count == 2 && next[1].distance2 < next[0].distance2) std::swap(next[0], next[1]);
-        if (count == 2) stack.push_back(next[1]);
-        bool has_next = count > 0;
-        if (has_next) node = next[0].node;
         // A waiting subtree is dropped when the best distances shrank below its bound.
         while (!has_next && !stack.empty()) {
             const Waiting w = stack.back();

@@ -3,15 +3,18 @@
 // search structure of frontmesh (STYLE §2), used by remesh (background faces) and tetra
 // (front nodes, paper §3.1.3-3.1.4).
 //
-// An item is a closed axis-aligned box (a point is a box with lo == hi). Every tree node holds
-// exactly one item and bisects its region of key space in one key coordinate, x, y, z
-// alternating with the depth; an item's key is the low corner of its box. Queries prune with
-// a bounding box stored per node, the union of the item boxes in its subtree, so a subtree
-// whose items all miss the query region is skipped whole. Bonet and Peraire key a box by the
-// 6-D point (x_min, y_min, z_min, x_max, y_max, z_max), whose key-space regions bound the boxes
-// for pruning; the stored subtree bounds do that here, more tightly, and 3-D keys keep the tree
-// as shallow as a tree of points (depth 25 instead of 42 for 1M small boxes): about 25% faster
-// box queries (tests/bench/bench_adt) and about 7% less tetra time on the Colin27 brain.
+// An item is a closed axis-aligned box (a point is a box with lo == hi); its key is the low
+// corner of its box. Every tree node bisects its region of key space in one key coordinate, x,
+// y, z alternating with the depth, at the region's midpoint, as in Bonet and Peraire's tree.
+// Unlike theirs, the items live in buckets at the leaves, up to kLeafItems each: a full leaf
+// splits in two. Queries prune with a bounding box stored per node, the union of the item
+// boxes in its subtree, and test the items of a leaf they reach one after the other in one
+// block of memory. Bonet and Peraire hold one item in every node and key a box by the 6-D
+// point (x_min, y_min, z_min, x_max, y_max, z_max), whose key-space regions bound the boxes
+// for pruning; the stored subtree bounds do that here, more tightly, and 3-D keys keep the
+// tree shallow. Against one item per node (the tree frontmesh had before), tests/bench/bench_adt:
+// sphere and box queries on 200k triangle boxes 1.2 to 1.7x faster, building and churn 1.1 to
+// 1.3x; the tetra stage on the Colin27 brain about 4% faster.
 //
 // The root region is a fixed domain given at construction. Items outside it are allowed:
 // their key is clamped to the domain to choose a branch, the exact box is kept for the tests,
@@ -85,24 +88,22 @@ struct AdtNeighbor {
 };
 
 /// Alternating digital tree over caller-given int32 ids (vertex, face or other ids; the
-/// tree is agnostic to their kind), with insertion, O(depth) removal and box, sphere and
-/// nearest queries.
+/// tree is agnostic to their kind), with insertion, O(1) removal and box, sphere and nearest
+/// queries.
 ///
-/// Memory: one 88-byte node per live item (6 doubles, the subtree bounds as 6 floats, id,
-/// parent and two children as int32) plus a 4-byte id->node entry per id value up to the
-/// largest id: about 92 MB per million items with dense ids (vector growth may add up to 2x
-/// unless `reserve` is used). Removed nodes go to a free list and are reused, so the pool
-/// never exceeds the largest number of items alive at once. Ids index the id->node table
-/// directly: keep them dense.
+/// Memory: 53 bytes per item slot (its key as 6 doubles, its id) in leaf buckets of
+/// kLeafItems slots, mostly half full or more after compact(); one 64-byte tree node per leaf
+/// and split; a 4-byte id->slot entry per id value up to the largest id. About 0.12 GB per
+/// million items with dense ids. Emptied bucket slots are reused by later
+/// insertions into the same leaf. Ids index the id->slot table directly: keep them dense.
 ///
-/// Depth is O(log n) for spread-out items; k items with identical keys form a chain of
-/// length k (a property of the ADT), so queries near them cost O(k). Traversals are
-/// iterative, with a per-thread stack of at most one node index (16 B for nearest) per
-/// level. Subtree bounds are widened on insert and kept on remove: they stay conservative
-/// (never smaller than the items below; within the node's key-space region up to float
-/// rounding) but may be looser than exact until `compact`, which recomputes them. Nodes live
-/// in insertion order; `compact` reorders them depth-first, which speeds up queries on trees
-/// larger than the caches.
+/// Depth is O(log n) for spread-out items. Items with identical (clamped) keys cannot be told
+/// apart by the tree: they share one leaf whose bucket grows a chain of further buckets, so
+/// queries near k such items cost O(k). Traversals are iterative, with a per-thread stack of
+/// at most one node index (16 B for nearest) per level. Subtree bounds are widened on insert
+/// and kept on remove (a leaf left empty drops its own): they stay conservative (never smaller
+/// than the items below) but may be looser than exact until `compact`, which recomputes them,
+/// merges sparse subtrees into single leaves and lays the nodes and buckets out depth-first.
 ///
 /// Thread safety: const member functions may run concurrently with each other (each thread
 /// uses its own traversal stack); any mutation needs exclusive access.
@@ -123,14 +124,14 @@ public:
     /// InternalError; throws InputError when `box` is not valid. Cost O(depth).
     void insert(std::int32_t id, const AdtBox& box);
 
-    /// Removes `id`; false when it is not present. The node takes over the item of a leaf
-    /// below it and the leaf goes to the free list. Cost O(depth).
+    /// Removes `id`; false when it is not present. The last item of its leaf takes its slot.
+    /// Cost O(1) (O(k) in a chain of k buckets).
     bool remove(std::int32_t id);
 
     /// True when `id` is present.
     bool contains(std::int32_t id) const {
-        return id >= 0 && id < static_cast<std::int32_t>(node_of_id_.size()) &&
-               node_of_id_[static_cast<std::size_t>(id)] >= 0;
+        return id >= 0 && id < static_cast<std::int32_t>(slot_of_id_.size()) &&
+               slot_of_id_[static_cast<std::size_t>(id)] >= 0;
     }
 
     /// The stored box of `id`. Precondition: contains(id) (else InternalError).
@@ -148,12 +149,12 @@ public:
     /// Reserves room for `items` nodes and ids 0 .. items - 1.
     void reserve(std::int32_t items);
 
-    /// Renumbers the nodes in depth-first order and releases free nodes. The tree and every
-    /// query result stay the same; queries then read memory mostly in sequence instead of in
-    /// insertion order, which matters once the pool outgrows the caches (about 2x faster
-    /// sphere queries on 1M random points). Call after a bulk insertion or a large removal.
-    /// Also recomputes every node's subtree bounds exactly. Cost O(pool_size()), temporary
-    /// memory 92 B per node.
+    /// Rebuilds the tree's layout: subtrees of at most kLeafItems items become one leaf,
+    /// empty leaves go, nodes and buckets are renumbered depth-first (queries then read memory
+    /// mostly in sequence, which matters once the tree outgrows the caches) and every subtree
+    /// bound becomes exact. Every query result stays the same as a set (the walk order may
+    /// change). Call after a bulk insertion or a large removal. Cost O(pool_size() + size()),
+    /// temporary memory about 70 B per item.
     void compact();
 
     /// Ids of the items whose box intersects the closed box `query`, in increasing id order
@@ -185,43 +186,69 @@ public:
     /// The kind of items (points or boxes).
     AdtItems items() const { return items_; }
 
-    /// Number of nodes allocated, live or free: at most the largest size() reached since the
-    /// last clear().
+    /// Number of tree nodes (splits and leaves) allocated. After compact() at most about
+    /// 4 size() / kLeafItems + 1 for spread-out items.
     std::int32_t pool_size() const { return static_cast<std::int32_t>(nodes_.size()); }
+
+    /// Number of leaf buckets allocated (each holds up to kLeafItems items).
+    std::int32_t bucket_count() const { return static_cast<std::int32_t>(buckets_.size()); }
+
+    /// Items per leaf bucket.
+    static constexpr std::int32_t kLeafItems = 16;
 
     /// Number of nodes on the longest root-to-leaf path (0 when empty). Cost O(size()).
     std::int32_t max_depth() const;
 
 private:
-    // 88 bytes. key = (lo, hi) of the item, lo the key insertion descends by; `bound` encloses
-    // the boxes of every item in the node's subtree (the node's own included), rounded outward
-    // to float and stored as (lo x, y, z, -hi x, y, z), so that widening is one elementwise
-    // min and a box test one elementwise <= (SSE, two overlapping 4-float loads): widened on
-    // insert, left as it is on remove (still enclosing), exact after compact(); queries skip a
-    // subtree whose bounds miss them. parent -1 at the root; child[0] doubles as the free-list
-    // link of a free node (id == -1).
+    // 64 bytes. `bound` encloses the boxes of every item in the node's subtree, stored as
+    // (lo x, y, z, -hi x, y, z), so that widening is one elementwise min and a box test one
+    // elementwise <= (SSE2, three pairs): widened on insert, left as it is on remove
+    // (still enclosing; empty for a leaf left without items), exact after compact(); queries
+    // skip a subtree whose bounds miss them. A split has `bucket` -1 and children (-1 for an
+    // empty half); a leaf has its first bucket and no children.
     struct Node {
-        double key[6];
-        float bound[6];
-        std::int32_t id;
-        std::int32_t parent;
+        double bound[6];
         std::int32_t child[2];
+        std::int32_t bucket;
+        std::int32_t depth;
+    };
+    // The items of a leaf: `count` of them in slot order (key = lo x, y, z, hi x, y, z of the
+    // item's box), then the leaf's next bucket (a chain only where more than kLeafItems items
+    // share one key). A free bucket has node -1 and `next` as its free-list link.
+    struct Bucket {
+        double key[kLeafItems][6];
+        std::int32_t id[kLeafItems];
+        std::int32_t count;
+        std::int32_t next;  // next bucket of the leaf, -1
+        std::int32_t prev;  // previous bucket of the leaf, -1 for its first
+        std::int32_t node;  // the leaf
+    };
+    // An item on its way through fill().
+    struct Item {
+        double key[6];
+        std::int32_t id;
     };
 
-    void insert_key(std::int32_t node);
+    std::int32_t new_node(std::int32_t depth);
+    std::int32_t new_bucket(std::int32_t node);
+    void free_bucket(std::int32_t bucket);
+    void append(std::int32_t bucket, const Item& item);
+    void fill(std::int32_t node, const double* region_lo, const double* region_hi,
+              std::size_t first, std::size_t last);
     void collect_box(const AdtBox& query, std::vector<std::int32_t>& out_ids) const;
     void collect_sphere(const Eigen::Vector3d& center, double radius2,
                         std::vector<std::int32_t>& out_ids) const;
     void collect_nearest(const Eigen::Vector3d& p, std::size_t k,
                          std::vector<AdtNeighbor>& heap) const;
-    std::int32_t allocate_node();
 
     AdtBox domain_;
     AdtItems items_;
-    HugeVector<Node> nodes_;                // pool, addressed by int32 (huge pages when large)
-    HugeVector<std::int32_t> node_of_id_;   // id -> node, -1 absent
+    HugeVector<Node> nodes_;                // tree nodes, root first after compact
+    HugeVector<Bucket> buckets_;            // leaf buckets (huge pages when large)
+    HugeVector<std::int32_t> slot_of_id_;   // id -> bucket * kLeafItems + slot, -1 absent
+    std::vector<Item> scratch_;             // items being redistributed by fill()
     std::int32_t root_ = -1;
-    std::int32_t free_head_ = -1;
+    std::int32_t free_bucket_ = -1;
     std::int32_t size_ = 0;
 };
 

@@ -312,9 +312,11 @@ TEST_CASE("ADT stays exact and bounded under insert/remove churn", "[core]") {
         CHECK(max_live > id_range / 2);
         // Freed nodes are reused: the pool never outgrows the peak number of live items.
         CHECK(adt.pool_size() <= max_live);
-        // Compaction releases the free nodes and changes no result; churn goes on after it.
+        // Compaction merges sparse leaves and changes no result; churn goes on after it.
         adt.compact();
-        CHECK(adt.pool_size() == adt.size());
+        INFO("nodes " << adt.pool_size() << ", buckets " << adt.bucket_count() << ", items " << adt.size());
+        CHECK(adt.pool_size() <= adt.size() / 4);
+        CHECK(adt.bucket_count() <= adt.size() / 4);
         check_queries(adt, ref, rng, 50, -0.1, 1.1, 0.1);
         for (int op = 0; op < 20000; ++op) {
             const std::int32_t id = pick(rng);
@@ -496,8 +498,10 @@ TEST_CASE("ADT compact keeps every query result and exact bounds", "[core]") {
         const auto before = run();
         const std::int32_t depth = adt.max_depth();
         adt.compact();
-        CHECK(adt.pool_size() == adt.size());
-        CHECK(adt.max_depth() == depth);
+        INFO("nodes " << adt.pool_size() << ", buckets " << adt.bucket_count() << ", items " << adt.size());
+        CHECK(adt.pool_size() <= adt.size() / 4);
+        CHECK(adt.bucket_count() <= adt.size() / 4);
+        CHECK(adt.max_depth() <= depth);  // sparse subtrees became leaves
         const auto after = run();
         REQUIRE(after.first == before.first);
         REQUIRE(after.second.size() == before.second.size());
