@@ -35,16 +35,17 @@ inline void set_bound(double* bound, const double* key) {
 }
 
 // bound := min(bound, other) elementwise (the union of the two boxes); stored only when it
-// grows, which leaves fewer dirty cache lines on the insertion path.
-inline void widen_bound(double* bound, const double* other) {
+// grows, which leaves fewer dirty cache lines on the insertion path. True when it grew.
+inline bool widen_bound(double* bound, const double* other) {
     const __m128d b01 = _mm_loadu_pd(bound), b23 = _mm_loadu_pd(bound + 2), b45 = _mm_loadu_pd(bound + 4);
     const __m128d o01 = _mm_loadu_pd(other), o23 = _mm_loadu_pd(other + 2), o45 = _mm_loadu_pd(other + 4);
     const __m128d grows = _mm_or_pd(_mm_or_pd(_mm_cmplt_pd(o01, b01), _mm_cmplt_pd(o23, b23)),
                                     _mm_cmplt_pd(o45, b45));
-    if (_mm_movemask_pd(grows) == 0) return;
+    if (_mm_movemask_pd(grows) == 0) return false;
     _mm_storeu_pd(bound, _mm_min_pd(b01, o01));
     _mm_storeu_pd(bound + 2, _mm_min_pd(b23, o23));
     _mm_storeu_pd(bound + 4, _mm_min_pd(b45, o45));
+    return true;
 }
 
 // The bound of no item: lo = +inf, -hi = +inf, met by no query and widened by any item.
@@ -260,7 +261,8 @@ void Adt::insert(std::int32_t id, const Eigen::Vector3d& p) {
 // coordinate depth mod 3 (an item's key is the low corner of its box, the point itself for
 // points). Keys outside the domain are clamped onto it to choose a branch. The region starts
 // as the domain and each level halves it at split = 0.5 lo + 0.5 hi, which lies in [lo, hi].
-// Every node on the way gets its subtree bounds widened to the new item's. The item joins
+// Every node on the way gets its subtree bounds widened to the new item's (from the bottom up,
+// as far as they grow). The item joins
 // the leaf it reaches (a new leaf in an empty half); a full leaf is filled anew with its
 // items and the new one, which splits it.
 void Adt::insert(std::int32_t id, const AdtBox& box) {
@@ -304,12 +306,22 @@ void Adt::insert(std::int32_t id, const AdtBox& box) {
     double lz = domain_.lo[2], hz = domain_.hi[2];
     std::int32_t at = root_;
     int empty_side = -1;
+    // The nodes passed, path[d] at depth d. Their bounds are widened afterwards from the
+    // bottom up, as far as they grow: a node's bounds enclose those of its children (each
+    // is widened with them, compact() and fill() make them exact unions), so above one that
+    // already encloses the item every one does.
+    std::int32_t path[kMaxDepth + 1];
+    std::int32_t depth = 0;
+    auto widen_up = [&](std::int32_t from) {
+        for (std::int32_t d = from; d >= 0 && widen_bound(nodes_[static_cast<std::size_t>(path[d])].bound, item_bound); --d) {
+        }
+    };
     // One level on one axis: true when the descent ends there, at a leaf (`at`) or at an empty
     // half of `at` (empty_side). The axes x, y, z follow one another in the unrolled loop
     // below (the root splits x); the region bounds stay in registers.
     auto level = [&](double k, double& lo, double& hi) {
-        Node& n = pool[at];
-        widen_bound(n.bound, item_bound);
+        const Node& n = pool[at];
+        path[depth] = at;
         if (n.bucket >= 0) return true;
         const double split = 0.5 * lo + 0.5 * hi;
         const int side = k < split ? 0 : 1;
@@ -320,13 +332,15 @@ void Adt::insert(std::int32_t id, const AdtBox& box) {
             return true;
         }
         at = child;
+        ++depth;
         return false;
     };
     while (!level(kx, lx, hx) && !level(ky, ly, hy) && !level(kz, lz, hz)) {
     }
     if (empty_side >= 0) {
-        const std::int32_t leaf = new_leaf(pool[at].depth + 1);
+        const std::int32_t leaf = new_leaf(depth + 1);
         nodes_[static_cast<std::size_t>(at)].child[empty_side] = leaf;
+        widen_up(depth);
         return;
     }
     const std::int32_t head = nodes_[static_cast<std::size_t>(at)].bucket;
@@ -334,6 +348,7 @@ void Adt::insert(std::int32_t id, const AdtBox& box) {
     while (buckets_[static_cast<std::size_t>(last)].next >= 0) last = buckets_[static_cast<std::size_t>(last)].next;
     if (buckets_[static_cast<std::size_t>(last)].count < kLeafItems) {
         append(last, item);
+        widen_up(depth);
         return;
     }
     // A full leaf. A chain (items of one key) whose key the item shares, or a leaf at the
@@ -347,6 +362,7 @@ void Adt::insert(std::int32_t id, const AdtBox& box) {
         buckets_[static_cast<std::size_t>(last)].next = next;
         buckets_[static_cast<std::size_t>(next)].prev = last;
         append(next, item);
+        widen_up(depth);
         return;
     }
     scratch_.clear();
@@ -364,7 +380,8 @@ void Adt::insert(std::int32_t id, const AdtBox& box) {
     }
     scratch_.push_back(item);
     const double region_lo[3] = {lx, ly, lz}, region_hi[3] = {hx, hy, hz};
-    fill(at, region_lo, region_hi, 0, scratch_.size());
+    fill(at, region_lo, region_hi, 0, scratch_.size());  // its bounds: exact, with the item
+    widen_up(depth - 1);
 }
 
 bool Adt::remove(std::int32_t id) {
