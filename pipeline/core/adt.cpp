@@ -194,6 +194,44 @@ void Adt::append(std::int32_t bucket, const Item& item) {
     slot_of_id_[static_cast<std::size_t>(item.id)] = bucket * kLeafItems + s;
 }
 
+// A new bucket after `last`, the last bucket of a leaf's chain.
+std::int32_t Adt::grow_chain(std::int32_t last) {
+    const std::int32_t next = new_bucket(buckets_[static_cast<std::size_t>(last)].node);
+    buckets_[static_cast<std::size_t>(last)].next = next;
+    buckets_[static_cast<std::size_t>(next)].prev = last;
+    return next;
+}
+
+// The items of the chain from `bucket` on, in slot order, appended to `into`.
+void Adt::copy_items(std::int32_t bucket, std::vector<Item>& into) const {
+    for (std::int32_t b = bucket; b >= 0; b = buckets_[static_cast<std::size_t>(b)].next) {
+        const Bucket& k = buckets_[static_cast<std::size_t>(b)];
+        for (std::int32_t s = 0; s < k.count; ++s) {
+            Item item;
+            std::copy(k.key[s], k.key[s] + 6, item.key);
+            item.id = k.id[s];
+            into.push_back(item);
+        }
+    }
+}
+
+// Makes `node` a leaf holding scratch_[first, last) in that order, in as many buckets as
+// they need, with exact bounds.
+void Adt::make_leaf(std::int32_t node, std::size_t first, std::size_t last) {
+    double bound[6];
+    set_empty(bound);
+    std::int32_t b = new_bucket(node);
+    nodes_[static_cast<std::size_t>(node)].bucket = b;
+    for (std::size_t i = first; i < last; ++i) {
+        if (buckets_[static_cast<std::size_t>(b)].count == kLeafItems) b = grow_chain(b);
+        append(b, scratch_[i]);
+        double item_bound[6];
+        set_bound(item_bound, scratch_[i].key);
+        widen_bound(bound, item_bound);
+    }
+    std::copy(bound, bound + 6, nodes_[static_cast<std::size_t>(node)].bound);
+}
+
 // Makes `node` (of region [region_lo, region_hi], its depth set) the subtree of the items
 // scratch_[first, last): a leaf when they fit in a bucket or cannot be told apart (identical
 // clamped keys, or the depth limit), else a split at the region's midpoint in key coordinate
@@ -205,29 +243,11 @@ void Adt::fill(std::int32_t node, const double* region_lo, const double* region_
     auto clamped = [&](const Item& item, int a) {
         return std::clamp(item.key[a], domain_.lo[a], domain_.hi[a]);
     };
-    double bound[6];
-    set_empty(bound);
     bool same = true;
-    for (std::size_t i = first; i < last; ++i) {
-        const Item& item = scratch_[i];
-        double item_bound[6];
-        set_bound(item_bound, item.key);
-        widen_bound(bound, item_bound);
-        for (int a = 0; a < 3 && same; ++a) same = clamped(item, a) == clamped(scratch_[first], a);
-    }
-    std::copy(bound, bound + 6, nodes_[static_cast<std::size_t>(node)].bound);
+    for (std::size_t i = first + 1; i < last && same; ++i)
+        for (int a = 0; a < 3 && same; ++a) same = clamped(scratch_[i], a) == clamped(scratch_[first], a);
     if (last - first <= static_cast<std::size_t>(kLeafItems) || same || depth >= kMaxDepth) {
-        std::int32_t b = new_bucket(node);
-        nodes_[static_cast<std::size_t>(node)].bucket = b;
-        for (std::size_t i = first; i < last; ++i) {
-            if (buckets_[static_cast<std::size_t>(b)].count == kLeafItems) {
-                const std::int32_t next = new_bucket(node);
-                buckets_[static_cast<std::size_t>(b)].next = next;
-                buckets_[static_cast<std::size_t>(next)].prev = b;
-                b = next;
-            }
-            append(b, scratch_[i]);
-        }
+        make_leaf(node, first, last);
         return;
     }
     const int axis = depth % 3;
@@ -238,6 +258,7 @@ void Adt::fill(std::int32_t node, const double* region_lo, const double* region_
         std::stable_partition(begin, end, [&](const Item& item) { return clamped(item, axis) < split; }) -
         begin);
     nodes_[static_cast<std::size_t>(node)].bucket = -1;
+    set_empty(nodes_[static_cast<std::size_t>(node)].bound);  // the union of its halves'
     for (int side = 0; side < 2; ++side) {
         const std::size_t lo = side == 0 ? first : mid, hi = side == 0 ? mid : last;
         if (lo == hi) continue;
@@ -248,6 +269,7 @@ void Adt::fill(std::int32_t node, const double* region_lo, const double* region_
         const std::int32_t child = new_node(depth + 1);
         nodes_[static_cast<std::size_t>(node)].child[side] = child;
         fill(child, child_lo, child_hi, lo, hi);
+        widen_bound(nodes_[static_cast<std::size_t>(node)].bound, nodes_[static_cast<std::size_t>(child)].bound);
     }
 }
 
@@ -358,23 +380,14 @@ void Adt::insert(std::int32_t id, const AdtBox& box) {
                           std::clamp(first.key[0][1], domain_.lo[1], domain_.hi[1]) == ky &&
                           std::clamp(first.key[0][2], domain_.lo[2], domain_.hi[2]) == kz;
     if (same_key || nodes_[static_cast<std::size_t>(at)].depth >= kMaxDepth) {
-        const std::int32_t next = new_bucket(at);
-        buckets_[static_cast<std::size_t>(last)].next = next;
-        buckets_[static_cast<std::size_t>(next)].prev = last;
-        append(next, item);
+        append(grow_chain(last), item);
         widen_up(depth);
         return;
     }
     scratch_.clear();
+    copy_items(head, scratch_);
     for (std::int32_t b = head; b >= 0;) {
-        const Bucket& k = buckets_[static_cast<std::size_t>(b)];
-        for (std::int32_t s = 0; s < k.count; ++s) {
-            Item moved;
-            std::copy(k.key[s], k.key[s] + 6, moved.key);
-            moved.id = k.id[s];
-            scratch_.push_back(moved);
-        }
-        const std::int32_t next = k.next;
+        const std::int32_t next = buckets_[static_cast<std::size_t>(b)].next;
         free_bucket(b);
         b = next;
     }
@@ -468,15 +481,7 @@ void Adt::compact() {
     auto gather = [&](auto& self, std::int32_t node) -> void {
         const Node& n = nodes_[static_cast<std::size_t>(node)];
         if (n.bucket >= 0) {
-            for (std::int32_t b = n.bucket; b >= 0; b = buckets_[static_cast<std::size_t>(b)].next) {
-                const Bucket& k = buckets_[static_cast<std::size_t>(b)];
-                for (std::int32_t s = 0; s < k.count; ++s) {
-                    Item item;
-                    std::copy(k.key[s], k.key[s] + 6, item.key);
-                    item.id = k.id[s];
-                    out.scratch_.push_back(item);
-                }
-            }
+            copy_items(n.bucket, out.scratch_);
             return;
         }
         for (const std::int32_t child : n.child)
@@ -491,23 +496,7 @@ void Adt::compact() {
         if (n.bucket >= 0 || count[static_cast<std::size_t>(node)] <= kLeafItems) {
             out.scratch_.clear();
             gather(gather, node);
-            double bound[6];
-            set_empty(bound);
-            std::int32_t b = out.new_bucket(at);
-            out.nodes_[static_cast<std::size_t>(at)].bucket = b;
-            for (const Item& item : out.scratch_) {
-                if (out.buckets_[static_cast<std::size_t>(b)].count == kLeafItems) {
-                    const std::int32_t next = out.new_bucket(at);
-                    out.buckets_[static_cast<std::size_t>(b)].next = next;
-                    out.buckets_[static_cast<std::size_t>(next)].prev = b;
-                    b = next;
-                }
-                out.append(b, item);
-                double item_bound[6];
-                set_bound(item_bound, item.key);
-                widen_bound(bound, item_bound);
-            }
-            std::copy(bound, bound + 6, out.nodes_[static_cast<std::size_t>(at)].bound);
+            out.make_leaf(at, 0, out.scratch_.size());
             return at;
         }
         double bound[6];

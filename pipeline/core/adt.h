@@ -233,6 +233,9 @@ private:
     std::int32_t new_bucket(std::int32_t node);
     void free_bucket(std::int32_t bucket);
     void append(std::int32_t bucket, const Item& item);
+    std::int32_t grow_chain(std::int32_t last);
+    void copy_items(std::int32_t bucket, std::vector<Item>& into) const;
+    void make_leaf(std::int32_t node, std::size_t first, std::size_t last);
     void fill(std::int32_t node, const double* region_lo, const double* region_hi,
               std::size_t first, std::size_t last);
     void collect_box(const AdtBox& query, std::vector<std::int32_t>& out_ids) const;
