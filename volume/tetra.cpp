@@ -511,7 +511,6 @@ private:
     struct StarFace {
         std::int32_t f, u, w;
         V3 U, W, n;
-        bool w_alone;  // w is the u of no face of the star (never in a closed fan)
     };
     struct Base {
         std::int32_t f = -1;
@@ -525,6 +524,7 @@ private:
         double max_b = 0;  // max |x_ck B_ki|
         std::int32_t star_begin[4] = {0, 0, 0, 0};  // star of a_i: stars_[star_begin[i], [i + 1])
         std::int32_t wing_begin[4] = {0, 0, 0, 0};  // wings of edge a_i a_j: wings_[...]
+        std::int32_t edge_begin[4] = {0, 0, 0, 0};  // front edges at a_i: edges_[...]
         V3 e[3];          // unit direction of the base edge a_i a_j (j = i + 1 mod 3)
     };
     std::vector<StarFace> stars_;  // the stars of the current base's nodes
@@ -536,6 +536,15 @@ private:
         double vpl2;
     };
     std::vector<Wing> wings_;
+    /// A front edge (a_i, v) at a base node, for the edge-face angle test of new faces: v and
+    /// the edge vector d = v - A_i with |d|^2 (every edge of the star once, or twice where a
+    /// non-manifold star has it in two faces: the test's outcome is the same).
+    struct EdgeAt {
+        V3 d;
+        double dl2;
+        std::int32_t v;
+    };
+    std::vector<EdgeAt> edges_;
 
     // ---- exact validity (predicates decide) -----------------------------------------------
     /// True when the closed segment (s0, s1) meets the closed triangle (t0, t1, t2) anywhere
@@ -787,26 +796,22 @@ private:
                     const V3& O = end == 0 ? Ai : Aj;
                     const V3 r1 = (end == 0 ? Aj : Ai) - O, r2 = P - O;
                     const V3 c12 = r1.cross(r2);
-                    // Every front edge at O: (O, u) of each face of its star, and (O, w)
-                    // where no face has it as u (a closed fan has each edge as both).
-                    const int b0 = bk.star_begin[(i + end) % 3], b1 = bk.star_begin[(i + end) % 3 + 1];
-                    for (int k = b0; k < b1; ++k) {
-                        const StarFace& sf = star[k];
-                        for (int side = 0; side < (sf.w_alone ? 2 : 1); ++side) {
-                            const std::int32_t xq = side == 0 ? sf.u : sf.w;
-                            if (xq == ai || xq == aj || xq == q) continue;
-                            // d unnormalised: |sin| = |d . nf| / |d| < sin_min, squared; the
-                            // wedge test below only needs the direction of d
-                            const V3 d = (side == 0 ? sf.U : sf.W) - O;
-                            const double dl2 = d.squaredNorm();
-                            if (dl2 == 0.0) return false;
-                            const double sn = d.dot(nf);
-                            if (sn * sn >= sin2_min_ * dl2) continue;
-                            const V3 dp = d - sn * nf;
-                            // inside the face's wedge at O (between r1 and r2)?
-                            if (r1.cross(dp).dot(c12) >= 0.0 && dp.cross(r2).dot(c12) >= 0.0)
-                                return false;
-                        }
+                    // Every front edge at O but O-A_kj and O-q (those of the new face)
+                    const std::int32_t other = end == 0 ? aj : ai;
+                    const int m = (i + end) % 3;
+                    const EdgeAt* const eb = edges_.data() + bk.edge_begin[m];
+                    const EdgeAt* const ee = edges_.data() + bk.edge_begin[m + 1];
+                    for (const EdgeAt* ed = eb; ed != ee; ++ed) {
+                        if (ed->v == other || ed->v == q) continue;
+                        // d unnormalised: |sin| = |d . nf| / |d| < sin_min, squared; the
+                        // wedge test below only needs the direction of d
+                        if (ed->dl2 == 0.0) return false;
+                        const double sn = ed->d.dot(nf);
+                        if (sn * sn >= sin2_min_ * ed->dl2) continue;
+                        const V3 dp = ed->d - sn * nf;
+                        // inside the face's wedge at O (between r1 and r2)?
+                        if (r1.cross(dp).dot(c12) >= 0.0 && dp.cross(r2).dot(c12) >= 0.0)
+                            return false;
                     }
                 }
             }
@@ -1003,7 +1008,7 @@ RegionMesher::Base RegionMesher::make_base(std::int32_t f, bool active_only) {
         for (std::int32_t k = face_head_[t[i]]; k >= 0; k = faces_[k / 3].next[k % 3]) {
             const std::int32_t g = k / 3, c = k % 3;
             const std::int32_t u = faces_[g].v[(c + 1) % 3], w = faces_[g].v[(c + 2) % 3];
-            stars_.push_back({g, u, w, x(u), x(w), face_normal(g), false});
+            stars_.push_back({g, u, w, x(u), x(w), face_normal(g)});
         }
     }
     bk.star_begin[3] = static_cast<std::int32_t>(stars_.size());
@@ -1011,17 +1016,26 @@ RegionMesher::Base RegionMesher::make_base(std::int32_t f, bool active_only) {
     // base edges' directions, the wings of each edge, and which front edges at a_i the u
     // nodes of the star miss (every front edge at a_i is (a_i, u) or (a_i, w) of a face).
     wings_.clear();
+    edges_.clear();
     for (int i = 0; i < 3; ++i) {
         const std::int32_t aj = t[(i + 1) % 3];
         const V3& Ai = bk.A[i];
         bk.e[i] = (bk.A[(i + 1) % 3] - Ai).normalized();
         bk.wing_begin[i] = static_cast<std::int32_t>(wings_.size());
+        bk.edge_begin[i] = static_cast<std::int32_t>(edges_.size());
         const int s0 = bk.star_begin[i], s1 = bk.star_begin[i + 1];
         const std::int32_t stamp = next_mark();
         for (int k = s0; k < s1; ++k) mark_[stars_[static_cast<std::size_t>(k)].u] = stamp;
         for (int k = s0; k < s1; ++k) {
-            StarFace& sf = stars_[static_cast<std::size_t>(k)];
-            sf.w_alone = mark_[sf.w] != stamp;
+            const StarFace& sf = stars_[static_cast<std::size_t>(k)];
+            // every front edge at a_i is (a_i, u) of a face, or (a_i, w) of one where w is the
+            // u of none (never in a closed fan)
+            const V3 du = sf.U - Ai;
+            edges_.push_back({du, du.squaredNorm(), sf.u});
+            if (mark_[sf.w] != stamp) {
+                const V3 dw = sf.W - Ai;
+                edges_.push_back({dw, dw.squaredNorm(), sf.w});
+            }
             if (sf.f == f || (sf.u != aj && sf.w != aj)) continue;
             V3 vp = (sf.u != aj ? sf.U : sf.W) - Ai;
             vp -= vp.dot(bk.e[i]) * bk.e[i];
@@ -1029,6 +1043,7 @@ RegionMesher::Base RegionMesher::make_base(std::int32_t f, bool active_only) {
         }
     }
     bk.wing_begin[3] = static_cast<std::int32_t>(wings_.size());
+    bk.edge_begin[3] = static_cast<std::int32_t>(edges_.size());
     bk.n = face_normal(f);
     bk.area = faces_[f].area;
     // Eq. 8 from the nodes on the n-th level front (§3.1.5); other nodes fall back on the
