@@ -133,14 +133,6 @@ bool has_nan(const Eigen::Vector3d& v) { return v.array().isNaN().any(); }
 
 }  // namespace
 
-namespace {
-
-// A subtree deeper than this stops splitting (64 halvings per axis, beyond which a region of
-// doubles hardly shrinks): its leaf chains buckets instead.
-constexpr std::int32_t kMaxDepth = 192;
-
-}  // namespace
-
 Adt::Adt(const AdtBox& domain, AdtItems items)
     : domain_(domain), items_(items) {
     static_assert(sizeof(Node) == 64, "the node size is documented in adt.h");
@@ -332,8 +324,23 @@ void Adt::insert(std::int32_t id, const AdtBox& box) {
     // bottom up, as far as they grow: a node's bounds enclose those of its children (each
     // is widened with them, compact() and fill() make them exact unions), so above one that
     // already encloses the item every one does.
-    std::int32_t path[kMaxDepth + 1];
+    std::int32_t* const path = path_;
     std::int32_t depth = 0;
+    // The descent starts from the finger (the node where the last one ended) when the key
+    // lies in its region: the root's descent would pass it, taking the same sides (lo <= k <
+    // hi on every axis; a key on the domain's upper face starts at the root). path_[0, finger
+    // depth) still holds the nodes above it. Consecutive insertions are mostly close together
+    // (tetra: 2.2% fewer instructions for the stage than descents from the root, and fewer
+    // than from a finger 1, 2, 3 or 5 levels higher).
+    int start_axis = 0;
+    if (finger_node_ >= 0 && finger_lo_[0] <= kx && kx < finger_hi_[0] && finger_lo_[1] <= ky &&
+        ky < finger_hi_[1] && finger_lo_[2] <= kz && kz < finger_hi_[2]) {
+        at = finger_node_;
+        depth = finger_depth_;
+        lx = finger_lo_[0], ly = finger_lo_[1], lz = finger_lo_[2];
+        hx = finger_hi_[0], hy = finger_hi_[1], hz = finger_hi_[2];
+        start_axis = depth % 3;
+    }
     auto widen_up = [&](std::int32_t from) {
         for (std::int32_t d = from; d >= 0 && widen_bound(nodes_[static_cast<std::size_t>(path[d])].bound, item_bound); --d) {
         }
@@ -347,18 +354,28 @@ void Adt::insert(std::int32_t id, const AdtBox& box) {
         if (n.bucket >= 0) return true;
         const double split = 0.5 * lo + 0.5 * hi;
         const int side = k < split ? 0 : 1;
+        const double before = side == 0 ? hi : lo;
         (side == 0 ? hi : lo) = split;
         const std::int32_t child = n.child[side];
         if (child < 0) {
             empty_side = side;
+            (side == 0 ? hi : lo) = before;  // the region of `at`, the finger
             return true;
         }
         at = child;
         ++depth;
         return false;
     };
-    while (!level(kx, lx, hx) && !level(ky, ly, hy) && !level(kz, lz, hz)) {
-    }
+    bool ended = false;
+    if (start_axis == 1) ended = level(ky, ly, hy) || level(kz, lz, hz);
+    if (start_axis == 2) ended = level(kz, lz, hz);
+    if (!ended)
+        while (!level(kx, lx, hx) && !level(ky, ly, hy) && !level(kz, lz, hz)) {
+        }
+    finger_node_ = at;
+    finger_depth_ = depth;
+    finger_lo_[0] = lx, finger_lo_[1] = ly, finger_lo_[2] = lz;
+    finger_hi_[0] = hx, finger_hi_[1] = hy, finger_hi_[2] = hz;
     if (empty_side >= 0) {
         const std::int32_t leaf = new_leaf(depth + 1);
         nodes_[static_cast<std::size_t>(at)].child[empty_side] = leaf;
@@ -435,6 +452,7 @@ AdtBox Adt::box(std::int32_t id) const {
 }
 
 void Adt::clear() {
+    finger_node_ = -1;
     nodes_.clear();
     buckets_.clear();
     slot_of_id_.clear();
@@ -451,6 +469,7 @@ void Adt::reserve(std::int32_t items) {
 }
 
 void Adt::compact() {
+    finger_node_ = -1;  // nodes are renumbered
     // Items per subtree, children after parents in pre-order.
     std::vector<std::int32_t> order, count(nodes_.size(), 0), stack;
     if (root_ >= 0) stack.push_back(root_);

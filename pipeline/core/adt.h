@@ -121,7 +121,9 @@ public:
 
     /// Inserts the box `box` under `id`. A tree of points accepts only degenerate boxes.
     /// Preconditions: id >= 0 and not present, and (points tree) box.lo == box.hi, else
-    /// InternalError; throws InputError when `box` is not valid. Cost O(depth).
+    /// InternalError; throws InputError when `box` is not valid. Cost O(depth), less when the
+    /// key falls in the region of the node where the last insertion ended: the descent starts
+    /// there (the same tree as from the root).
     void insert(std::int32_t id, const AdtBox& box);
 
     /// Removes `id`; false when it is not present. The last item of its leaf takes its slot.
@@ -253,6 +255,18 @@ private:
     std::int32_t root_ = -1;
     std::int32_t free_bucket_ = -1;
     std::int32_t size_ = 0;
+
+    // A subtree deeper than this stops splitting (64 halvings per axis, beyond which a region
+    // of doubles hardly shrinks): its leaf chains buckets instead.
+    static constexpr std::int32_t kMaxDepth = 192;
+    // Insertion state. path_[d]: the node at depth d on the last descent. The finger: the node
+    // where it ended (a leaf, or the node it gave a new leaf), with its key-space region; the
+    // next descent starts there when its key lies in that region. Nodes are never freed but
+    // by compact() and clear(), which drop the finger.
+    std::int32_t path_[kMaxDepth + 2];
+    std::int32_t finger_node_ = -1;
+    std::int32_t finger_depth_ = 0;
+    double finger_lo_[3] = {0.0, 0.0, 0.0}, finger_hi_[3] = {0.0, 0.0, 0.0};
 };
 
 }  // namespace frontmesh::core
