@@ -95,36 +95,25 @@ double bound_distance2(const Node& n, const Eigen::Vector3d& p) {
 
 // Depth-first walk over the subtrees whose stored bounds `meets` accepts; `visit(node)` runs
 // on the node of every such subtree, in pre-order (node, first child's subtree, second
-// child's subtree), which pruning never reorders. The walk goes on into the first child in
-// place and leaves the second on a per-thread stack (at most one entry per level), so
-// concurrent const queries share nothing and a query allocates only while the stack
-// outgrows its past depth.
-template <class Nodes, class Meets, class Visit>
+// child's subtree), which pruning never reorders. Each node's accepted children go on a stack
+// on the call's own frame, the second below the first, and the next node is popped. A node
+// has at most kMaxDepth ancestors and the stack holds at most one entry per level plus two,
+// so `kStack` entries suffice; concurrent const queries share nothing.
+template <std::size_t kStack, class Nodes, class Meets, class Visit>
 void bounded_walk(const Nodes& nodes, std::int32_t root, Meets&& meets, Visit&& visit) {
     if (root < 0 || !meets(nodes[static_cast<std::size_t>(root)])) return;
-    thread_local std::vector<std::int32_t> stack(64);
-    std::int32_t* top = stack.data();  // next free entry
-    std::int32_t* end = top + stack.size();
+    std::int32_t stack[kStack];
+    std::int32_t* top = stack;  // next free entry
     std::int32_t node = root;
     while (true) {
         const auto& n = nodes[static_cast<std::size_t>(node)];
         visit(n);
         const std::int32_t c0 = n.child[0];
         const std::int32_t c1 = n.child[1];
-        if (c1 >= 0 && meets(nodes[static_cast<std::size_t>(c1)])) {
-            if (top == end) {  // deeper than ever before on this thread
-                const std::size_t used = static_cast<std::size_t>(top - stack.data());
-                stack.resize(2 * stack.size());
-                top = stack.data() + used;
-                end = stack.data() + stack.size();
-            }
-            *top++ = c1;
-        }
-        if (c0 >= 0 && meets(nodes[static_cast<std::size_t>(c0)])) {
-            node = c0;
-            continue;
-        }
-        if (top == stack.data()) return;
+        if (c1 >= 0 && meets(nodes[static_cast<std::size_t>(c1)])) *top++ = c1;
+        if (c0 >= 0 && meets(nodes[static_cast<std::size_t>(c0)])) *top++ = c0;
+        if (top == stack) return;
+        FM_CHECK(top < stack + kStack - 2);  // a node deeper than kMaxDepth: never
         node = *--top;
     }
 }
@@ -545,14 +534,25 @@ void Adt::collect_box(const AdtBox& query, std::vector<std::int32_t>& out_ids) c
     const BoxTest test(query);
     auto meets = [&](const Node& n) { return test.bound_meets(n.bound); };
     const Bucket* const buckets = buckets_.data();
+    // Every item of a leaf is written, the count advanced only for those that meet the query:
+    // no branch on the test, which no predictor guesses well (tetra on Colin27: this function
+    // had a fifth of the run's mispredicted branches; without them, and with the walk's stack
+    // on the frame, the stage took 5% less time). out_ids keeps room for a bucket more.
+    std::size_t found = out_ids.size();
+    out_ids.resize(found + 4 * kLeafItems);
     auto visit = [&](const Node& n) {
         for (std::int32_t b = n.bucket; b >= 0; b = buckets[b].next) {
             const Bucket& k = buckets[b];
-            for (std::int32_t s = 0; s < k.count; ++s)
-                if (test.key_meets(k.key[s])) out_ids.push_back(k.id[s]);
+            if (found + kLeafItems > out_ids.size()) out_ids.resize(2 * out_ids.size());
+            std::int32_t* const out = out_ids.data();
+            for (std::int32_t s = 0; s < k.count; ++s) {
+                out[found] = k.id[s];
+                found += test.key_meets(k.key[s]);
+            }
         }
     };
-    bounded_walk(nodes_, root_, meets, visit);
+    bounded_walk<kMaxDepth + 4>(nodes_, root_, meets, visit);
+    out_ids.resize(found);
 }
 
 void Adt::query_box(const AdtBox& query, std::vector<std::int32_t>& out_ids, AdtOrder order) const {
@@ -604,7 +604,7 @@ void Adt::collect_sphere(const Eigen::Vector3d& center, double radius2,
                 if (test.key_distance2(k.key[s]) <= radius2) out_ids.push_back(k.id[s]);
         }
     };
-    bounded_walk(nodes_, root_, meets, visit);
+    bounded_walk<kMaxDepth + 4>(nodes_, root_, meets, visit);
 }
 
 void Adt::query_sphere(const Eigen::Vector3d& center, double radius,

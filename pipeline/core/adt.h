@@ -99,8 +99,9 @@ struct AdtNeighbor {
 ///
 /// Depth is O(log n) for spread-out items. Items with identical (clamped) keys cannot be told
 /// apart by the tree: they share one leaf whose bucket grows a chain of further buckets, so
-/// queries near k such items cost O(k). Traversals are iterative, with a per-thread stack of
-/// at most one node index (16 B for nearest) per level. Subtree bounds are widened on insert
+/// queries near k such items cost O(k). Traversals are iterative, with a stack of about one
+/// node index per level (on the call's frame for box and sphere queries, per thread and 16 B
+/// an entry for nearest). Subtree bounds are widened on insert
 /// and kept on remove (a leaf left empty drops its own): they stay conservative (never smaller
 /// than the items below) but may be looser than exact until `compact`, which recomputes them,
 /// merges sparse subtrees into single leaves and lays the nodes and buckets out depth-first.
