@@ -244,6 +244,11 @@ private:
         std::int32_t id;
     };
     std::vector<Cand> cands_;                 // candidates of the current base
+    struct Suspect {
+        std::int32_t f;
+        std::uint16_t code[3];  // is_valid_tet's codes of its nodes
+    };
+    std::vector<Suspect> suspects_;           // is_valid_tet: faces past the filters
     std::int64_t stat_[8] = {};
 
     // ---- small helpers --------------------------------------------------------------------
@@ -675,12 +680,15 @@ private:
             node_code_[w] = {cstamp, static_cast<std::uint16_t>(c)};
             return static_cast<std::uint16_t>(c);
         };
+        // First the filters, over every face of `near`, without a branch on their outcome
+        // (a branch here was mispredicted about once a face): the faces left go to `suspects_`.
+        suspects_.resize(near.size());
+        std::size_t ns = 0;
         for (std::int32_t f : near) {
-            if (f == base || f == existing[0] || f == existing[1] || f == existing[2]) continue;
             const Tri& t = faces_[f].v;
             const std::uint16_t c0 = code_of(t[0]), c1 = code_of(t[1]), c2 = code_of(t[2]);
             // The triangle's box misses the tet's: all three nodes beyond one side of it.
-            if ((c0 & c1 & c2 & 0x3F) != 0) continue;
+            const bool misses = (c0 & c1 & c2 & 0x3F) != 0;
             // A node of the triangle that spans plane i lies on it exactly; when the others
             // lie beyond it, the triangle meets the closed tet only in nodes (or the edge)
             // they share, which fails none of the tests below: the triangles around the tet's
@@ -689,8 +697,16 @@ private:
             const unsigned on0 = c0 >> 10, on1 = c1 >> 10, on2 = c2 >> 10;
             const unsigned ok = (on0 | ((c0 >> 6) & 0xF)) & (on1 | ((c1 >> 6) & 0xF)) &
                                 (on2 | ((c2 >> 6) & 0xF));
-            if ((ok & ~(on0 & on1 & on2) & 0xF) != 0) continue;
-            const std::uint16_t code[3] = {c0, c1, c2};
+            const bool beyond = (ok & ~(on0 & on1 & on2) & 0xF) != 0;
+            // the base and the front faces the tet closes are its own faces
+            const bool own = (f == base) | (f == existing[0]) | (f == existing[1]) | (f == existing[2]);
+            suspects_[ns] = {f, {c0, c1, c2}};
+            ns += !(misses | beyond | own);
+        }
+        for (std::size_t j = 0; j < ns; ++j) {
+            const std::int32_t f = suspects_[j].f;
+            const Tri& t = faces_[f].v;
+            const std::uint16_t* const code = suspects_[j].code;
             for (int k = 0; k < 3; ++k) {
                 const std::int32_t w = t[k];
                 if (mark_[w] == stamp) continue;
@@ -1137,14 +1153,18 @@ bool RegionMesher::try_base(std::int32_t f, bool active_only, bool relaxed) {
             adt_.query_sphere(bk.xc, r * (1.0 + 1e-9), node_ids_);
         }
         if (small_front || from_faces) {
+            // each node once, in order of first appearance; written always, kept when new (a
+            // branch on the mark was mispredicted about once a node)
             const std::int32_t stamp = next_mark();
-            node_ids_.clear();
+            node_ids_.resize(3 * near.size());
+            std::size_t n = 0;
             for (std::int32_t g : near)
-                for (std::int32_t q : faces_[g].v)
-                    if (mark_[q] != stamp) {
-                        mark_[q] = stamp;
-                        node_ids_.push_back(q);
-                    }
+                for (std::int32_t q : faces_[g].v) {
+                    node_ids_[n] = q;
+                    n += mark_[q] != stamp;
+                    mark_[q] = stamp;
+                }
+            node_ids_.resize(n);
         }
         for (std::int32_t q : node_ids_) {
             if (q == bk.a[0] || q == bk.a[1] || q == bk.a[2]) continue;
