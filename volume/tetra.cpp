@@ -1029,8 +1029,7 @@ RegionMesher::Base RegionMesher::make_base(std::int32_t f, bool active_only) {
     }
     bk.star_begin[3] = static_cast<std::int32_t>(stars_.size());
     // What the angle tests of step 4 read for every candidate but do not depend on it: the
-    // base edges' directions, the wings of each edge, and which front edges at a_i the u
-    // nodes of the star miss (every front edge at a_i is (a_i, u) or (a_i, w) of a face).
+    // base edges' directions, the wings of each edge, and the front edges at each a_i.
     wings_.clear();
     edges_.clear();
     for (int i = 0; i < 3; ++i) {

@@ -200,6 +200,9 @@ public:
 
     /// Items per leaf bucket.
     static constexpr std::int32_t kLeafItems = 16;
+    /// Depth of the deepest possible node: a subtree this deep stops splitting (64 halvings
+    /// per axis, beyond which a region of doubles hardly shrinks) and its leaf chains buckets.
+    static constexpr std::int32_t kMaxDepth = 192;
 
     /// Number of nodes on the longest root-to-leaf path (0 when empty). Cost O(size()).
     std::int32_t max_depth() const;
@@ -259,9 +262,6 @@ private:
     std::int32_t free_bucket_ = -1;
     std::int32_t size_ = 0;
 
-    // A subtree deeper than this stops splitting (64 halvings per axis, beyond which a region
-    // of doubles hardly shrinks): its leaf chains buckets instead.
-    static constexpr std::int32_t kMaxDepth = 192;
     // Insertion state. path_[d]: the node at depth d on the last descent. The finger: the node
     // where it ended (a leaf, or the node it gave a new leaf), with its key-space region; the
     // next descent starts there when its key lies in that region. Nodes are never freed but
