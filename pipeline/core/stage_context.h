@@ -1,25 +1,66 @@
 #pragma once
 // What a stage may use besides its input and parameters (STYLE §3): progress, logging,
-// named counters, warnings and a cancellation check. The runner owns the sinks.
+// named counters, warnings, a diagnostics sink and a cancellation check. The runner owns
+// the sinks; a default-constructed context drops progress, log lines and diagnostics and
+// is never cancelled.
 
+#include <atomic>
+#include <cstdint>
 #include <functional>
 #include <map>
 #include <string>
 #include <utility>
 #include <vector>
 
+#include "pipeline/core/error.h"
+
 namespace frontmesh::core {
 
 enum class LogLevel { Debug, Info, Warning };
+
+/// Geometry a stage hands over for a person to inspect, e.g. the front around a stall or a
+/// cavity that could not be closed. The runner writes it as `diagnostics/NAME.vtu` beside
+/// the checkpoints (cells of 2, 3 or 4 points: edges, triangles, tets; the cell array
+/// `kind` carries `kinds`' meaning).
+struct Diagnostic {
+    std::string name;  ///< short, file-name safe: letters, digits, '-', '_', '.'
+    std::string what;  ///< one line: why it was handed over, and what `kind` means
+    std::vector<double> xyz;                        ///< 3 per point, mm
+    std::vector<std::vector<std::int32_t>> cells;   ///< point ids, 2 to 4 per cell
+    std::vector<std::int32_t> kind;                 ///< per cell
+
+    std::int32_t add_point(double x, double y, double z) {
+        xyz.push_back(x);
+        xyz.push_back(y);
+        xyz.push_back(z);
+        return static_cast<std::int32_t>(xyz.size() / 3 - 1);
+    }
+    void add_cell(std::vector<std::int32_t> ids, std::int32_t cell_kind) {
+        cells.push_back(std::move(ids));
+        kind.push_back(cell_kind);
+    }
+};
+
+/// Thrown by StageContext::check_cancelled when the run was asked to stop (Ctrl-C,
+/// SIGTERM): not a failure of the input or of frontmesh.
+class CancelledError : public Error {
+public:
+    using Error::Error;
+};
 
 class StageContext {
 public:
     using ProgressSink = std::function<void(double fraction, const std::string& what)>;
     using LogSink = std::function<void(LogLevel, const std::string&)>;
+    using DiagnosticSink = std::function<void(Diagnostic)>;
 
     StageContext() = default;
-    StageContext(ProgressSink progress, LogSink log)
-        : progress_(std::move(progress)), log_(std::move(log)) {}
+    StageContext(ProgressSink progress, LogSink log, DiagnosticSink diagnostics = {},
+                 const std::atomic<bool>* cancel = nullptr)
+        : progress_(std::move(progress)),
+          log_(std::move(log)),
+          diagnostics_(std::move(diagnostics)),
+          cancel_(cancel) {}
 
     /// Reports progress in [0, 1] of the running stage.
     void progress(double fraction, const std::string& what = {}) const {
@@ -36,6 +77,31 @@ public:
     void count(const std::string& name, double value) { counters_[name] = value; }
     void add(const std::string& name, double value) { counters_[name] += value; }
 
+    /// True when someone receives diagnostics: build a Diagnostic only then.
+    bool wants_diagnostics() const { return static_cast<bool>(diagnostics_); }
+    /// Hands geometry to the runner for inspection; dropped when nobody receives it.
+    void diagnose(Diagnostic diagnostic) const {
+        if (diagnostics_) diagnostics_(std::move(diagnostic));
+    }
+
+    /// True once the run was asked to stop. Cheap (one relaxed atomic load).
+    bool is_cancelled() const { return cancel_ != nullptr && cancel_->load(std::memory_order_relaxed); }
+    /// Long loops call this between units of work; throws CancelledError when the run was
+    /// asked to stop, so the stage ends without writing anything.
+    void check_cancelled() const {
+        if (is_cancelled()) FM_THROW(CancelledError, "the run was interrupted");
+    }
+
+    /// A context for parallel work inside a stage: the same log, diagnostics and
+    /// cancellation, no progress, its own counters and warnings (merge them in a fixed
+    /// order with merge_from so the summary does not depend on the threads).
+    StageContext child() const { return StageContext({}, log_, diagnostics_, cancel_); }
+    /// Adds another context's counters (summed) and warnings (appended, not logged again).
+    void merge_from(const StageContext& other) {
+        for (const auto& [name, value] : other.counters_) counters_[name] += value;
+        warnings_.insert(warnings_.end(), other.warnings_.begin(), other.warnings_.end());
+    }
+
     const std::map<std::string, double>& counters() const { return counters_; }
     const std::vector<std::string>& warnings() const { return warnings_; }
     void clear() {
@@ -50,6 +116,8 @@ private:
 
     ProgressSink progress_;
     LogSink log_;
+    DiagnosticSink diagnostics_;
+    const std::atomic<bool>* cancel_ = nullptr;
     std::map<std::string, double> counters_;
     std::vector<std::string> warnings_;
 };
