@@ -4,12 +4,13 @@ set -euo pipefail
 
 packages=(
   build-essential cmake pkg-config
-  libvtk9-dev libinsighttoolkit5-dev libeigen3-dev libopenmesh-dev libyaml-cpp-dev
+  libvtk9-dev libinsighttoolkit5-dev libeigen3-dev libyaml-cpp-dev
   catch2 libtbb-dev
   mricron-data                                   # real atlases for examples and e2e tests
   python3 python3-numpy python3-vtk9 python3-meshio   # the meshcheck referee, checkpoint checks
   tetgen                                         # peer mesher for the benchmarks
   gmsh                                           # reads our .msh/.mesh exports back in the tests
+  clang-format                                   # scripts/check-format.sh (CI step)
   snakemake                                      # examples/cohort/Snakefile (local or SLURM)
 )
 

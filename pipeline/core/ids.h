@@ -1,36 +1,17 @@
 #pragma once
-// Strong 0-based integer ids (STYLE §2): an int32_t in a struct, -1 is invalid.
+// Identifiers shared by every stage.
+//
+// Element ids (vertices, faces, tets) are plain `std::int32_t` indices into the flat arrays
+// of SurfaceNetwork and TetMesh, -1 where none. A strong-id wrapper (`VertexId` ...) was
+// declared here once but never adopted: every public signature, the SIMD kernels and the
+// VTK/ITK converters index the flat arrays directly, and a wrapper at the boundary only
+// would add conversions without catching anything. It was removed (issue 19).
 
-#include <compare>
 #include <cstdint>
-#include <functional>
 
 namespace frontmesh::core {
-
-template <class Tag>
-struct Id {
-    std::int32_t value = -1;
-
-    constexpr Id() = default;
-    constexpr explicit Id(std::int32_t v) : value(v) {}
-
-    /// True when the id refers to an element (value >= 0).
-    constexpr bool is_valid() const { return value >= 0; }
-    constexpr auto operator<=>(const Id&) const = default;
-};
-
-using VertexId = Id<struct VertexTag>;
-using FaceId = Id<struct FaceTag>;
-using TetId = Id<struct TetTag>;
 
 /// A label value of the segmented image; 0 is the outside.
 using Label = std::int32_t;
 
 }  // namespace frontmesh::core
-
-template <class Tag>
-struct std::hash<frontmesh::core::Id<Tag>> {
-    std::size_t operator()(frontmesh::core::Id<Tag> id) const noexcept {
-        return std::hash<std::int32_t>()(id.value);
-    }
-};
