@@ -30,8 +30,8 @@
 #include <itkImageIOFactory.h>
 #include <itkImageSeriesReader.h>
 #include <itkMetaDataObject.h>
-#include <zlib.h>
 
+#include "io/image_header.h"
 #include "pipeline/core/error.h"
 
 namespace frontmesh::io {
@@ -52,9 +52,6 @@ struct Source {
     SourceKind kind = SourceKind::File;
     std::vector<std::string> files;
 };
-
-/// "input.image: 'PATH' " prefix shared by every message about the image.
-std::string about(const std::string& path) { return "input.image: '" + path + "' "; }
 
 /// ITK's reason for a failure on one line: the first line of the description without the
 /// "ITK ERROR: Class(0x...): " prefix; when that line only introduces details (ends in ':'),
@@ -167,16 +164,18 @@ std::vector<std::string> pattern_slices(const std::string& path, const fs::path&
         const long long number = std::stoll(middle.substr(digits_at));
         // Only the exact spelling the pattern produces counts ("slice_7" is not "%03d").
         if (pattern.name_of(number) != name) continue;
+        // A slice that is a named pipe or a device would block the reader: refused unopened.
+        require_regular_file(path, entry.path().string(), "slice");
         found.emplace(number, entry.path().string());
     }
-    if (ec) FM_THROW(InputError, about(path) + "cannot list folder: " + ec.message());
-    if (found.empty()) FM_THROW(InputError, about(path) + "matches no file");
+    if (ec) FM_THROW(InputError, image_prefix(path) + "cannot list folder: " + ec.message());
+    if (found.empty()) FM_THROW(InputError, image_prefix(path) + "matches no file");
 
     std::vector<std::string> files;
     long long expected = found.begin()->first;
     for (const auto& [number, file] : found) {
         if (number != expected) {
-            FM_THROW(InputError, about(path) + "slice '" +
+            FM_THROW(InputError, image_prefix(path) + "slice '" +
                                      (dir / pattern.name_of(expected)).string() +
                                      "' is missing between " + std::to_string(expected - 1) +
                                      " and " + std::to_string(number));
@@ -213,7 +212,7 @@ std::vector<std::string> dicom_series(const std::string& path,
         }
         return best;
     } catch (const itk::ExceptionObject& e) {
-        FM_THROW(InputError, about(path) + "cannot scan DICOM folder: " + short_reason(e));
+        FM_THROW(InputError, image_prefix(path) + "cannot scan DICOM folder: " + short_reason(e));
     }
 }
 
@@ -228,24 +227,27 @@ Source resolve(const std::string& path) {
         const auto pattern = parse_pattern(p.filename().string());
         if (pattern && fs::is_directory(dir, ec))
             return {SourceKind::SliceStack, pattern_slices(path, dir, *pattern)};
-        FM_THROW(InputError, about(path) + "does not exist");
+        FM_THROW(InputError, image_prefix(path) + "does not exist");
     }
 
     if (fs::is_regular_file(status)) {
         if (!std::ifstream(path, std::ios::binary))
-            FM_THROW(InputError, about(path) + "cannot be opened for reading");
+            FM_THROW(InputError, image_prefix(path) + "cannot be opened for reading");
         return {SourceKind::File, {path}};
     }
-    if (!fs::is_directory(status))
-        FM_THROW(InputError, about(path) + "is neither a file nor a folder");
+    // A named pipe, device or socket is refused by its type, never opened (it would block).
+    if (!fs::is_directory(status)) require_regular_file(path, path, "");
 
     std::vector<std::string> slices;
     std::vector<std::string> others;
     for (const auto& entry : fs::directory_iterator(p, ec)) {
+        // GDCM's folder scan opens every entry that is not a folder, hidden ones too.
+        if (entry.exists(ec) && !entry.is_regular_file(ec) && !entry.is_directory(ec))
+            require_regular_file(path, entry.path().string(), "folder entry");
         if (!entry.is_regular_file(ec) || is_hidden(entry.path())) continue;
         (is_slice_file(entry.path()) ? slices : others).push_back(entry.path().string());
     }
-    if (ec) FM_THROW(InputError, about(path) + "cannot list folder: " + ec.message());
+    if (ec) FM_THROW(InputError, image_prefix(path) + "cannot list folder: " + ec.message());
     // Name order: the byte order of the full paths, which share the folder prefix.
     std::sort(slices.begin(), slices.end());
 
@@ -254,92 +256,9 @@ Source resolve(const std::string& path) {
         if (!dicom.empty()) return {SourceKind::Dicom, std::move(dicom)};
     }
     if (slices.empty())
-        FM_THROW(InputError, about(path) + "holds neither a DICOM series nor TIFF/PNG slices");
+        FM_THROW(InputError,
+                 image_prefix(path) + "holds neither a DICOM series nor TIFF/PNG slices");
     return {SourceKind::SliceStack, std::move(slices)};
-}
-
-/// A field of a NIfTI header at byte `offset`, swapped when the file's byte order differs.
-template <class T>
-T header_field(const unsigned char* header, std::size_t offset, bool swap) {
-    unsigned char bytes[sizeof(T)];
-    std::memcpy(bytes, header + offset, sizeof(T));
-    if (swap) std::reverse(bytes, bytes + sizeof(T));
-    T value;
-    std::memcpy(&value, bytes, sizeof(T));
-    return value;
-}
-
-/// niftilib fills the voxels missing from a truncated .nii or .nii.gz with 0 and reports
-/// success, so compare the bytes present with what the header announces. For .nii.gz this
-/// decompresses the file once more (about 30 ms per 10 MB of voxels).
-void check_nifti_complete(const std::string& path, const std::string& file) {
-    const std::string name = lowercase(file);
-    const bool compressed = name.ends_with(".nii.gz");
-    if (!compressed && !name.ends_with(".nii")) return;
-    const std::unique_ptr<gzFile_s, int (*)(gzFile)> stream(gzopen(file.c_str(), "rb"), gzclose);
-    if (!stream) return;  // ITK has already opened it; let the reader report any failure
-    gzbuffer(stream.get(), 1u << 17);
-
-    std::array<unsigned char, 544> header{};
-    const int header_read = gzread(stream.get(), header.data(), header.size());
-    if (header_read < 348) return;
-    // sizeof_hdr (348 for NIfTI-1, 540 for NIfTI-2) tells the version and the byte order.
-    const auto size_host = header_field<std::int32_t>(header.data(), 0, false);
-    const auto size_swapped = header_field<std::int32_t>(header.data(), 0, true);
-    const bool nifti2 = size_host == 540 || size_swapped == 540;
-    if (!nifti2 && size_host != 348 && size_swapped != 348) return;
-    const bool swap = size_host != 348 && size_host != 540;
-    if (nifti2 && header_read < 544) return;
-
-    std::uint64_t voxels = 1;
-    std::uint64_t data_start = 0;
-    int bitpix = 0;
-    if (nifti2) {
-        const auto rank = header_field<std::int64_t>(header.data(), 16, swap);
-        if (rank < 1 || rank > 7) return;
-        for (int d = 1; d <= rank; ++d) {
-            const auto extent = header_field<std::int64_t>(header.data(), 16 + 8 * d, swap);
-            if (extent < 1) return;
-            voxels *= static_cast<std::uint64_t>(extent);
-        }
-        bitpix = header_field<std::int16_t>(header.data(), 14, swap);
-        data_start = static_cast<std::uint64_t>(
-            std::max<std::int64_t>(header_field<std::int64_t>(header.data(), 168, swap), 544));
-    } else {
-        const auto rank = header_field<std::int16_t>(header.data(), 40, swap);
-        if (rank < 1 || rank > 7) return;
-        for (int d = 1; d <= rank; ++d) {
-            const auto extent = header_field<std::int16_t>(header.data(), 40 + 2 * d, swap);
-            if (extent < 1) return;
-            voxels *= static_cast<std::uint64_t>(extent);
-        }
-        bitpix = header_field<std::int16_t>(header.data(), 72, swap);
-        const auto offset = header_field<float>(header.data(), 108, swap);
-        if (!std::isfinite(offset)) return;
-        data_start = static_cast<std::uint64_t>(std::max(offset, 352.0f));
-    }
-    if (bitpix <= 0 || bitpix % 8 != 0) return;
-    const std::uint64_t needed = data_start + voxels * static_cast<std::uint64_t>(bitpix / 8);
-
-    std::uint64_t present = static_cast<std::uint64_t>(header_read);
-    if (!compressed) {
-        std::error_code ec;
-        present = fs::file_size(file, ec);
-        if (ec) return;
-    } else {
-        std::vector<unsigned char> chunk(1u << 20);
-        while (present < needed) {
-            const auto want =
-                static_cast<unsigned>(std::min<std::uint64_t>(chunk.size(), needed - present));
-            const int got = gzread(stream.get(), chunk.data(), want);
-            if (got <= 0) break;
-            present += static_cast<std::uint64_t>(got);
-        }
-    }
-    if (present < needed)
-        FM_THROW(InputError, about(path) + "is truncated: it holds " + std::to_string(present) +
-                                 " of the " + std::to_string(needed) +
-                                 " bytes its NIfTI header announces");
 }
 
 /// Number of dimensions of the image `io` describes, trailing axes of size 1 beyond the
@@ -368,6 +287,24 @@ std::string value_text(T value) {
     return text.str();
 }
 
+/// Throws the InputError for the first non-finite voxel (i, j, k) of a float image.
+template <class T>
+[[noreturn]] void throw_non_finite(const std::string& path, T value, std::size_t i, std::size_t j,
+                                   std::size_t k) {
+    FM_THROW(InputError, image_prefix(path) + "voxel " + index_text(i, j, k) + " is " +
+                             value_text(value) +
+                             "; every voxel of a float image must be a finite number");
+}
+
+std::string axis_spacing_name(int axis) { return std::string("spacing along ") + "xyz"[axis]; }
+
+/// Throws InputError unless `direction` (axis directions as columns) is finite and
+/// non-singular.
+void check_direction(const std::string& path, const Eigen::Matrix3d& direction) {
+    if (!direction.allFinite() || std::abs(direction.determinant()) < 1e-6)
+        FM_THROW(InputError, image_prefix(path) + "has a non-finite or singular direction matrix");
+}
+
 /// Copies the voxels of an nx*ny*nz buffer (x fastest) into the interior of a label grid
 /// padded by `pad` voxels, mapping each value with `label_of(value, i, j, k)`.
 template <class T, class LabelOf>
@@ -394,7 +331,7 @@ core::LabelImage label_image_from(const itk::Image<T, 3>& image, const std::stri
     const auto pad = static_cast<std::size_t>(options.pad);
     for (std::size_t extent : n) {
         if (extent + 2 * pad > static_cast<std::size_t>(std::numeric_limits<int>::max()))
-            FM_THROW(InputError, about(path) + "is too large: " + std::to_string(extent) +
+            FM_THROW(InputError, image_prefix(path) + "is too large: " + std::to_string(extent) +
                                      " voxels along one axis");
     }
 
@@ -407,11 +344,13 @@ core::LabelImage label_image_from(const itk::Image<T, 3>& image, const std::stri
         out.origin[r] = image.GetOrigin()[r];
         for (int c = 0; c < 3; ++c) out.direction(r, c) = image.GetDirection()(r, c);
     }
-    if (options.spacing) out.spacing = *options.spacing;
-    if (!out.spacing.allFinite() || (out.spacing.array() <= 0.0).any())
-        FM_THROW(InputError, about(path) + "has a non-positive spacing; set input.spacing");
-    if (!out.direction.allFinite() || std::abs(out.direction.determinant()) < 1e-6)
-        FM_THROW(InputError, about(path) + "has a singular direction matrix");
+    if (options.spacing) {
+        out.spacing = *options.spacing;
+    } else {
+        // A series' z spacing comes from its slice positions, known only now.
+        for (int a = 0; a < 3; ++a) check_spacing(path, axis_spacing_name(a), out.spacing[a]);
+    }
+    check_direction(path, out.direction);
     if (options.frame == core::Frame::Ras) {
         // RAS = LPS with x and y negated, for points and for direction vectors alike.
         out.origin.head<2>() = -out.origin.head<2>();
@@ -427,19 +366,24 @@ core::LabelImage label_image_from(const itk::Image<T, 3>& image, const std::stri
     if (options.threshold) {
         const double threshold = *options.threshold;
         fill_padded(buffer, n, pad, out.labels,
-                    [threshold](T v, std::size_t, std::size_t, std::size_t) {
+                    [&path, threshold](T v, std::size_t i, std::size_t j, std::size_t k) {
+                        // NaN compares false: without the check it would become background.
+                        if constexpr (std::is_floating_point_v<T>) {
+                            if (!std::isfinite(v)) throw_non_finite(path, v, i, j, k);
+                        }
                         return static_cast<double>(v) > threshold ? Label{1} : Label{0};
                     });
     } else if constexpr (std::is_floating_point_v<T>) {
         fill_padded(
             buffer, n, pad, out.labels, [&path](T v, std::size_t i, std::size_t j, std::size_t k) {
                 const auto d = static_cast<double>(v);
-                if (!std::isfinite(d) || d != std::trunc(d))
-                    FM_THROW(InputError, about(path) + "voxel " + index_text(i, j, k) +
+                if (!std::isfinite(d)) throw_non_finite(path, v, i, j, k);
+                if (d != std::trunc(d))
+                    FM_THROW(InputError, image_prefix(path) + "voxel " + index_text(i, j, k) +
                                              " has non-integral value " + value_text(v) +
                                              "; set input.threshold to segment a grayscale image");
                 if (d < label_min || d > label_max)
-                    FM_THROW(InputError, about(path) + "voxel " + index_text(i, j, k) +
+                    FM_THROW(InputError, image_prefix(path) + "voxel " + index_text(i, j, k) +
                                              " has value " + value_text(v) +
                                              ", outside the int32 label range");
                 return static_cast<Label>(d);
@@ -451,8 +395,9 @@ core::LabelImage label_image_from(const itk::Image<T, 3>& image, const std::stri
             fill_padded(buffer, n, pad, out.labels,
                         [&path](T v, std::size_t i, std::size_t j, std::size_t k) {
                             if (std::cmp_less(v, label_min) || std::cmp_greater(v, label_max))
-                                FM_THROW(InputError, about(path) + "voxel " + index_text(i, j, k) +
-                                                         " has value " + value_text(v) +
+                                FM_THROW(InputError, image_prefix(path) + "voxel " +
+                                                         index_text(i, j, k) + " has value " +
+                                                         value_text(v) +
                                                          ", outside the int32 label range");
                             return static_cast<Label>(v);
                         });
@@ -489,7 +434,7 @@ core::LabelImage read_as(const std::string& path, const Source& source, itk::Ima
             image = reader->GetOutput();
         }
     } catch (const itk::ExceptionObject& e) {
-        FM_THROW(InputError, about(path) + "cannot be read: " + short_reason(e));
+        FM_THROW(InputError, image_prefix(path) + "cannot be read: " + short_reason(e));
     }
 
     if (source.kind == SourceKind::Dicom) {
@@ -497,7 +442,7 @@ core::LabelImage read_as(const std::string& path, const Source& source, itk::Ima
         if (itk::ExposeMetaData<double>(image->GetMetaDataDictionary(),
                                         "ITK_non_uniform_sampling_deviation", deviation) &&
             deviation > max_slice_spacing_deviation * image->GetSpacing()[2]) {
-            FM_THROW(InputError, about(path) +
+            FM_THROW(InputError, image_prefix(path) +
                                      "DICOM series has missing or unevenly spaced slices "
                                      "(deviation " +
                                      value_text(deviation) + " mm from a spacing of " +
@@ -517,19 +462,54 @@ void validate(const ImageReadOptions& options) {
         FM_THROW(InputError, "input.spacing: must be three positive numbers (mm)");
 }
 
-}  // namespace
+/// An image source with its header read and checked, voxels not yet read.
+struct OpenImage {
+    Source source;
+    itk::ImageIOBase::Pointer io;
+};
 
-core::LabelImage read_label_image(const std::string& path, const ImageReadOptions& options) {
+/// Checks the geometry ITK reports for the file (every format, after the header checks):
+/// size, spacing (unless input.spacing replaces it), origin and direction.
+void check_geometry(const std::string& path, const Source& source, const itk::ImageIOBase& io,
+                    const ImageReadOptions& options) {
+    const unsigned n = io.GetNumberOfDimensions();
+    std::vector<std::uint64_t> extents;
+    for (unsigned d = 0; d < n; ++d) extents.push_back(io.GetDimensions(d));
+    if (source.files.size() > 1) extents.push_back(source.files.size());
+    check_voxel_count(path, "image size", extents);
+    // A series' slice spacing (z) comes from the slice positions, checked once read.
+    const unsigned spaced = std::min(n, source.files.size() > 1 ? 2u : 3u);
+    if (!options.spacing)
+        for (unsigned d = 0; d < spaced; ++d)
+            check_spacing(path, axis_spacing_name(static_cast<int>(d)), io.GetSpacing(d));
+    for (unsigned d = 0; d < n; ++d)
+        if (!std::isfinite(io.GetOrigin(d)))
+            FM_THROW(InputError, image_prefix(path) + "has a non-finite origin");
+    if (n >= 3) {
+        Eigen::Matrix3d direction;
+        for (unsigned c = 0; c < 3; ++c) {
+            const std::vector<double> axis = io.GetDirection(c);
+            for (unsigned r = 0; r < 3; ++r) direction(r, c) = axis[r];
+        }
+        check_direction(path, direction);
+    }
+}
+
+/// Resolves `path`, checks its header before ITK sees it, then lets ITK read the header and
+/// checks what it reports. Reads no voxels.
+OpenImage open_image(const std::string& path, const ImageReadOptions& options) {
     validate(options);
-    const Source source = resolve(path);
+    OpenImage image{resolve(path), nullptr};
+    const Source& source = image.source;
     const std::string& first = source.files.front();
 
     if (source.kind == SourceKind::SliceStack && !options.spacing)
-        FM_THROW(InputError, about(path) +
+        FM_THROW(InputError, image_prefix(path) +
                                  "is a TIFF/PNG slice stack, which carries no spacing; set "
                                  "input.spacing");
+    if (source.kind == SourceKind::File) check_image_header(path, first, !options.spacing);
 
-    itk::ImageIOBase::Pointer io;
+    itk::ImageIOBase::Pointer& io = image.io;
     if (source.kind == SourceKind::Dicom) {
         io = itk::GDCMImageIO::New();
     } else {
@@ -537,7 +517,7 @@ core::LabelImage read_label_image(const std::string& path, const ImageReadOption
                                                 itk::ImageIOFactory::IOFileModeEnum::ReadMode);
         if (!io)
             FM_THROW(InputError,
-                     about(path) +
+                     image_prefix(path) +
                          "is not an image ITK can read (unknown format or damaged header)" +
                          (first == path ? std::string() : " ('" + first + "')"));
     }
@@ -545,23 +525,34 @@ core::LabelImage read_label_image(const std::string& path, const ImageReadOption
         io->SetFileName(first);
         io->ReadImageInformation();
     } catch (const itk::ExceptionObject& e) {
-        FM_THROW(InputError, about(path) + "cannot be read: " + short_reason(e));
+        FM_THROW(InputError, image_prefix(path) + "cannot be read: " + short_reason(e));
     }
 
     if (io->GetNumberOfComponents() != 1)
-        FM_THROW(InputError, about(path) + "has " + std::to_string(io->GetNumberOfComponents()) +
+        FM_THROW(InputError, image_prefix(path) + "has " +
+                                 std::to_string(io->GetNumberOfComponents()) +
                                  " components per voxel; a scalar image is required");
     const unsigned dims = effective_dimensions(*io);
     if (source.files.size() == 1 && dims != 3)
-        FM_THROW(InputError, about(path) + "is a " + std::to_string(dims) +
+        FM_THROW(InputError, image_prefix(path) + "is a " + std::to_string(dims) +
                                  "-D image; a 3-D image is required");
     if (source.files.size() > 1 && dims != 2)
-        FM_THROW(InputError, about(path) + "slice '" + first + "' is " + std::to_string(dims) +
-                                 "-D; a series needs 2-D slices");
+        FM_THROW(InputError, image_prefix(path) + "slice '" + first + "' is " +
+                                 std::to_string(dims) + "-D; a series needs 2-D slices");
+    check_geometry(path, source, *io, options);
+    return image;
+}
 
-    if (source.kind == SourceKind::File && std::string(io->GetNameOfClass()) == "NiftiImageIO")
-        check_nifti_complete(path, first);
+}  // namespace
 
+void check_label_image(const std::string& path, const ImageReadOptions& options) {
+    open_image(path, options);
+}
+
+core::LabelImage read_label_image(const std::string& path, const ImageReadOptions& options) {
+    const OpenImage image = open_image(path, options);
+    const Source& source = image.source;
+    itk::ImageIOBase* io = image.io.GetPointer();
     switch (io->GetComponentType()) {
         case itk::IOComponentEnum::UCHAR:
             return read_as<unsigned char>(path, source, io, options);
@@ -589,7 +580,7 @@ core::LabelImage read_label_image(const std::string& path, const ImageReadOption
             return read_as<double>(path, source, io, options);
         default:
             FM_THROW(InputError,
-                     about(path) + "has unsupported voxel type '" +
+                     image_prefix(path) + "has unsupported voxel type '" +
                          itk::ImageIOBase::GetComponentTypeAsString(io->GetComponentType()) + "'");
     }
 }

@@ -25,11 +25,20 @@ struct ImageReadOptions {
 /// Reads `path`: a file (.nii, .nii.gz, .mha, .mhd, .nrrd, .nhdr, or a single 3-D .tif),
 /// a folder holding a DICOM series or a TIFF/PNG slice stack (slices in name order), or a
 /// printf pattern such as "slices/img_%03d.png" (numbers from the lowest one found upward).
-/// Integer voxel types become labels as they are; float voxels must be integral unless
-/// `threshold` is set. Spacing, origin and direction are honoured.
-/// Throws InputError naming the path when it is missing, unreadable, not 3-D, has
-/// non-integral labels without a threshold, labels outside int32, or a slice stack
-/// without spacing.
+/// Integer voxel types become labels as they are; float voxels must be finite, and integral
+/// unless `threshold` is set. Spacing, origin and direction are honoured.
+/// Before ITK reads anything, `path` must be a regular file or a folder (a named pipe or a
+/// device is refused unopened) and its header passes check_image_header (io/image_header.h):
+/// at most max_image_voxels voxels, spacing within [min_spacing_mm, max_spacing_mm], finite
+/// non-singular orientation, data files at least as long as the header announces.
+/// Throws InputError, one line naming the path (and the header field, data file or voxel),
+/// when it is missing, unreadable, malformed, not 3-D, has a non-finite voxel, non-integral
+/// labels without a threshold, labels outside int32, or is a slice stack without spacing.
 core::LabelImage read_label_image(const std::string& path, const ImageReadOptions& options);
+
+/// Every check of read_label_image that needs no voxel data (the path, the header as read
+/// here and by ITK, the data size), for `frontmesh validate`. Reads headers only (and
+/// decompresses a .nii.gz once to count its bytes). Throws InputError as read_label_image.
+void check_label_image(const std::string& path, const ImageReadOptions& options);
 
 }  // namespace frontmesh::io

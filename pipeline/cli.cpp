@@ -11,6 +11,7 @@
 #include <tbb/global_control.h>
 
 #include "io/export.h"
+#include "io/image_reader.h"
 #include "io/label_table.h"
 #include "pipeline/check.h"
 #include "pipeline/cohort.h"
@@ -223,6 +224,7 @@ int run_cli(int argc, char** argv) {
             FM_THROW(InputError, std::string(args.jobs ? "-j" : "--recipe") + ": only for frontmesh cohort");
         if (args.recipe.empty()) FM_THROW(InputError, args.command + ": needs a recipe file (frontmesh " + args.command + " RECIPE.yaml)");
         const Recipe recipe = load_recipe(args.recipe, args.overrides);
+        if (!recipe.input.image.empty()) io::check_label_image(recipe.input.image, {.threshold = recipe.input.threshold, .spacing = recipe.input.spacing});
         if (args.command == "validate") {
             std::cout << args.recipe << ": valid; output in " << recipe.output.dir << '\n';
             return 0;

@@ -3,9 +3,12 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <limits>
 #include <set>
 #include <sstream>
 #include <string>
@@ -16,6 +19,7 @@
 // io/image_reader.cpp).
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
+
 #include <itkGDCMImageIO.h>
 #include <itkImage.h>
 #include <itkImageFileWriter.h>
@@ -24,6 +28,11 @@
 #include <itkPNGImageIO.h>
 #include <itkRGBPixel.h>
 #include <itkTIFFImageIO.h>
+#include <sys/socket.h>
+#include <sys/stat.h>
+#include <sys/un.h>
+#include <unistd.h>
+#include <zlib.h>
 
 #include "pipeline/core/error.h"
 #include "tests/fixtures/phantoms.h"
@@ -33,6 +42,7 @@ using frontmesh::core::Frame;
 using frontmesh::core::InputError;
 using frontmesh::core::Label;
 using frontmesh::core::LabelImage;
+using frontmesh::io::check_label_image;
 using frontmesh::io::ImageReadOptions;
 using frontmesh::io::read_label_image;
 
@@ -207,6 +217,72 @@ std::string input_error_of(const std::function<void()>& read) {
         return e.what();
     }
     return "";
+}
+
+/// Checks that reading `path` throws an InputError whose one-line message names `file` and
+/// each of `words` (the header field, data file or voxel).
+void check_refused(const std::string& path, const ImageReadOptions& options,
+                   const std::string& file, const std::vector<std::string>& words) {
+    const std::string message = input_error_of([&] { read_label_image(path, options); });
+    INFO(message);
+    CHECK(message.find("'" + file + "'") != std::string::npos);
+    for (const std::string& word : words) CHECK(message.find(word) != std::string::npos);
+    CHECK(message.find('\n') == std::string::npos);
+    // `frontmesh validate` reports the same line without reading voxels.
+    CHECK(input_error_of([&] { check_label_image(path, options); }) == message);
+}
+
+std::string read_bytes(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    std::ostringstream bytes;
+    bytes << in.rdbuf();
+    return bytes.str();
+}
+
+void write_bytes(const std::string& path, const std::string& bytes) {
+    std::ofstream(path, std::ios::binary | std::ios::trunc) << bytes;
+}
+
+/// The decompressed bytes of a gzip file (or of a plain one, which zlib passes through).
+std::string read_gz(const std::string& path) {
+    gzFile in = gzopen(path.c_str(), "rb");
+    REQUIRE(in != nullptr);
+    std::string bytes;
+    char chunk[1 << 14];
+    for (int got; (got = gzread(in, chunk, sizeof chunk)) > 0;) bytes.append(chunk, got);
+    gzclose(in);
+    return bytes;
+}
+
+void write_gz(const std::string& path, const std::string& bytes) {
+    gzFile out = gzopen(path.c_str(), "wb");
+    REQUIRE(out != nullptr);
+    REQUIRE(gzwrite(out, bytes.data(), static_cast<unsigned>(bytes.size())) ==
+            static_cast<int>(bytes.size()));
+    gzclose(out);
+}
+
+/// `value` written at byte `offset` of `bytes` (host byte order, as ITK writes on x86).
+template <class T>
+std::string poked(std::string bytes, std::size_t offset, T value) {
+    REQUIRE(offset + sizeof(T) <= bytes.size());
+    std::memcpy(bytes.data() + offset, &value, sizeof(T));
+    return bytes;
+}
+
+template <class T>
+T peeked(const std::string& bytes, std::size_t offset) {
+    T value;
+    std::memcpy(&value, bytes.data() + offset, sizeof(T));
+    return value;
+}
+
+/// `header` with the line that starts with `key` replaced by `line`.
+std::string with_line(const std::string& header, const std::string& key, const std::string& line) {
+    const auto at = header.find("\n" + key);
+    REQUIRE(at != std::string::npos);
+    const auto end = header.find('\n', at + 1);
+    return header.substr(0, at + 1) + line + header.substr(end);
 }
 
 const LabelFunction as_value = [](int i, int j, int k) { return double(test_label(i, j, k)); };
@@ -507,6 +583,299 @@ TEST_CASE("unreadable inputs throw InputError naming the path", "[io]") {
     SECTION("a folder with no image") {
         std::ofstream(dir + "/readme.txt") << "nothing here\n";
         CHECK_THROWS_AS(read_label_image(dir, ImageReadOptions{}), InputError);
+    }
+}
+
+TEST_CASE("NIfTI header values are checked before ITK reads them", "[io]") {
+    // Each case: a valid image written by ITK, then one header field corrupted, in .nii and
+    // in .nii.gz (the header read through zlib). ITK would turn a NaN, 0 or inf pixdim into
+    // 1 mm, and abort() (VNL) on a non-finite sform or qform.
+    const std::string dir = frontmesh::fixtures::temp_dir("io_nifti_header");
+    const auto image = make_image<unsigned char>(rotated_grid(), as_value);
+    const float nan = std::numeric_limits<float>::quiet_NaN();
+    const float inf = std::numeric_limits<float>::infinity();
+    struct Corruption {
+        std::string name;
+        std::function<std::string(const std::string&)> apply;
+        std::vector<std::string> words;
+    };
+    const std::vector<Corruption> corruptions = {
+        {"pixdim_nan",
+         [&](const std::string& b) { return poked<float>(b, 80, nan); },
+         {"pixdim[1]", "nan"}},
+        {"pixdim_zero",
+         [&](const std::string& b) { return poked<float>(b, 84, 0.0f); },
+         {"pixdim[2]", "0 mm"}},
+        {"pixdim_inf",
+         [&](const std::string& b) { return poked<float>(b, 88, inf); },
+         {"pixdim[3]", "inf"}},
+        {"pixdim_huge",
+         [&](const std::string& b) { return poked<float>(b, 80, 1e30f); },
+         {"pixdim[1]", "1e+30 mm"}},
+        {"pixdim_tiny",
+         [&](const std::string& b) { return poked<float>(b, 80, 1e-30f); },
+         {"pixdim[1]", "1e-30 mm"}},
+        {"sform_nan",
+         [&](const std::string& b) { return poked<float>(b, 280, nan); },
+         {"srow_x[0]", "nan"}},
+        {"sform_inf",
+         [&](const std::string& b) { return poked<float>(b, 324, inf); },
+         {"srow_z[3]", "inf"}},
+        {"sform_singular",
+         [&](const std::string& b) {
+             std::string c = b;
+             for (std::size_t at : {280u, 284u, 288u}) c = poked<float>(c, at, 0.0f);
+             return c;
+         },
+         {"sform", "singular"}},
+        {"qform_nan",
+         [&](const std::string& b) { return poked<float>(b, 256, nan); },
+         {"quatern_b", "nan"}},
+        {"dim_zero",
+         [&](const std::string& b) { return poked<std::int16_t>(b, 44, 0); },
+         {"dim[2]", "at least 1"}},
+        {"dim_huge",
+         [&](const std::string& b) {
+             std::string c = b;
+             for (std::size_t at : {42u, 44u, 46u}) c = poked<std::int16_t>(c, at, 1500);
+             return c;
+         },
+         {"dim[1..3]", "1500 x 1500 x 1500", "at most"}},
+        {"datatype",
+         [&](const std::string& b) { return poked<std::int16_t>(b, 70, 3); },
+         {"datatype 3"}},
+    };
+    for (const std::string extension : {".nii", ".nii.gz"}) {
+        const std::string valid = dir + "/valid" + extension;
+        write_image(image.GetPointer(), valid);
+        const std::string bytes = read_gz(valid);
+        REQUIRE(peeked<std::int32_t>(bytes, 0) == 348);
+        REQUIRE(peeked<std::int16_t>(bytes, 252) > 0);  // ITK writes a qform and an sform
+        REQUIRE(peeked<std::int16_t>(bytes, 254) > 0);
+        REQUIRE_NOTHROW(read_label_image(valid, ImageReadOptions{}));
+        for (const Corruption& corruption : corruptions) {
+            DYNAMIC_SECTION(corruption.name << extension) {
+                const std::string path = dir + "/" + corruption.name + extension;
+                const std::string corrupt = corruption.apply(bytes);
+                extension == ".nii" ? write_bytes(path, corrupt) : write_gz(path, corrupt);
+                check_refused(path, ImageReadOptions{}, path, corruption.words);
+            }
+        }
+    }
+
+    SECTION("input.spacing replaces a broken pixdim; the sform is checked regardless") {
+        const std::string valid = dir + "/valid.nii";
+        write_image(image.GetPointer(), valid);
+        const std::string path = dir + "/pixdim_zero_replaced.nii";
+        write_bytes(path, poked<float>(read_bytes(valid), 80, 0.0f));
+        ImageReadOptions options;
+        options.spacing = Eigen::Vector3d(0.5, 0.5, 0.5);
+        Grid respaced = rotated_grid();
+        respaced.spacing = *options.spacing;
+        check_image(read_label_image(path, options), respaced, 1, test_label, 1e-4);
+        write_bytes(path, poked<float>(read_bytes(path), 300, nan));
+        check_refused(path, options, path, {"srow_y[1]"});
+    }
+
+    SECTION("a .hdr/.img pair: the header in one file, the voxels in the other") {
+        const std::string hdr = dir + "/pair.hdr";
+        write_image(image.GetPointer(), hdr);
+        const std::string img = dir + "/pair.img";
+        REQUIRE(fs::exists(img));
+        check_image(read_label_image(hdr, ImageReadOptions{}), rotated_grid(), 1, test_label, 1e-4);
+        const std::string header = read_bytes(hdr);
+        write_bytes(hdr, poked<float>(header, 84, nan));
+        check_refused(hdr, ImageReadOptions{}, hdr, {"pixdim[2]", "nan"});
+        write_bytes(hdr, header);
+        fs::resize_file(img, fs::file_size(img) - 1);
+        check_refused(hdr, ImageReadOptions{}, img, {"NIfTI data file", "truncated"});
+    }
+    SECTION("a NIfTI-2 header") {
+        // ITK 5.2 reads no NIfTI-2, but its header is checked first all the same.
+        std::string header(544, '\0');
+        header = poked<std::int32_t>(header, 0, 540);
+        header.replace(4, 8, std::string("n+2\0\r\n\x1a\n", 8));
+        header = poked<std::int16_t>(header, 12, 2);
+        header = poked<std::int16_t>(header, 14, 8);
+        const std::int64_t dims[8] = {3, 4, 4, 4, 1, 1, 1, 1};
+        for (int d = 0; d < 8; ++d) header = poked<std::int64_t>(header, 16 + 8 * d, dims[d]);
+        for (int d = 0; d < 8; ++d) header = poked<double>(header, 104 + 8 * d, 1.0);
+        header = poked<std::int64_t>(header, 168, 544);
+        header = poked<double>(header, 120, std::numeric_limits<double>::quiet_NaN());
+        const std::string path = dir + "/nifti2.nii.gz";
+        write_gz(path, header + std::string(64, '\1'));
+        check_refused(path, ImageReadOptions{}, path, {"pixdim[2]", "nan"});
+    }
+}
+
+TEST_CASE("MetaImage and NRRD headers and data sizes are checked before allocation", "[io]") {
+    // A short data file was read as garbage, a huge DimSize allocated gigabytes before
+    // failing: both are refused from the header and the file sizes alone.
+    const std::string dir = frontmesh::fixtures::temp_dir("io_data_size");
+    Grid grid = rotated_grid();
+    grid.size = {12, 10, 8};
+    const auto image = make_image<short>(grid, as_value);
+
+    SECTION("MetaImage with a separate data file (.mhd + .raw)") {
+        const std::string path = dir + "/labels.mhd";
+        write_image(image.GetPointer(), path);
+        const std::string raw = dir + "/labels.raw";
+        REQUIRE(fs::exists(raw));
+        REQUIRE_NOTHROW(read_label_image(path, ImageReadOptions{}));
+        const std::string header = read_bytes(path);
+
+        fs::resize_file(raw, fs::file_size(raw) / 3);
+        check_refused(path, ImageReadOptions{}, raw, {"ElementDataFile", "truncated", "1920"});
+        fs::resize_file(raw, 0);
+        check_refused(path, ImageReadOptions{}, raw, {"ElementDataFile", "truncated"});
+
+        write_bytes(path, with_line(header, "DimSize", "DimSize = 1500 1500 1500"));
+        check_refused(path, ImageReadOptions{}, path, {"DimSize", "1500 x 1500 x 1500"});
+        write_bytes(path, with_line(header, "DimSize", "DimSize = 12 0 8"));
+        check_refused(path, ImageReadOptions{}, path, {"DimSize", "at least 1"});
+        write_bytes(path, with_line(header, "ElementSpacing", "ElementSpacing = 0.7 nan 2.1"));
+        check_refused(path, ImageReadOptions{}, path, {"ElementSpacing value 2", "nan"});
+        write_bytes(path, with_line(header, "ElementSpacing", "ElementSpacing = 0.7 1e30 2.1"));
+        check_refused(path, ImageReadOptions{}, path, {"ElementSpacing value 2", "1e+30"});
+        write_bytes(path,
+                    with_line(header, "TransformMatrix", "TransformMatrix = 1 0 0 1 0 0 0 0 1"));
+        check_refused(path, ImageReadOptions{}, path, {"TransformMatrix", "singular"});
+        write_bytes(path, with_line(header, "Offset", "Offset = 0 inf 0"));
+        check_refused(path, ImageReadOptions{}, path, {"Offset", "inf"});
+        write_bytes(path, with_line(header, "ElementType", "ElementType = MET_NOTHING"));
+        check_refused(path, ImageReadOptions{}, path, {"ElementType", "MET_NOTHING"});
+    }
+    SECTION("MetaImage with attached data (.mha)") {
+        const std::string path = dir + "/labels.mha";
+        write_image(image.GetPointer(), path);
+        fs::resize_file(path, fs::file_size(path) - 100);
+        check_refused(path, ImageReadOptions{}, path, {"truncated", "DimSize 12 10 8"});
+    }
+    SECTION("NRRD, attached (.nrrd) and detached (.nhdr)") {
+        const std::string path = dir + "/labels.nrrd";
+        write_image(image.GetPointer(), path);
+        const std::string bytes = read_bytes(path);
+        REQUIRE(bytes.find("encoding: raw") != std::string::npos);
+        REQUIRE_NOTHROW(read_label_image(path, ImageReadOptions{}));
+        const auto data_at = bytes.find("\n\n") + 2;
+        const std::string header = bytes.substr(0, data_at);
+        const std::string data = bytes.substr(data_at);
+
+        write_bytes(path, bytes.substr(0, bytes.size() - 1));
+        check_refused(path, ImageReadOptions{}, path, {"truncated", "sizes 12 10 8"});
+        write_bytes(path, with_line(header, "sizes", "sizes: 1500 1500 1500") + data);
+        check_refused(path, ImageReadOptions{}, path, {"sizes", "1500 x 1500 x 1500"});
+        write_bytes(path, with_line(header, "space directions",
+                                    "space directions: (nan,0,0) (0,1,0) (0,0,1)") +
+                              data);
+        check_refused(path, ImageReadOptions{}, path, {"space directions", "nan"});
+        write_bytes(path, with_line(header, "space directions",
+                                    "space directions: (1e-9,0,0) (0,1,0) (0,0,1)") +
+                              data);
+        check_refused(path, ImageReadOptions{}, path, {"space directions", "1e-09 mm"});
+        write_bytes(path, with_line(header, "space directions",
+                                    "space directions: (1,0,0) (2,0,0) (0,0,1)") +
+                              data);
+        check_refused(path, ImageReadOptions{}, path, {"space directions", "singular"});
+        write_bytes(path, with_line(header, "space directions", "spacings: 1 inf 1") + data);
+        check_refused(path, ImageReadOptions{}, path, {"spacings value 2", "inf"});
+
+        const std::string nhdr = dir + "/labels.nhdr";
+        const std::string raw = dir + "/labels_data.raw";
+        write_bytes(nhdr, header.substr(0, header.size() - 1) + "data file: labels_data.raw\n");
+        write_bytes(raw, data);
+        check_image(read_label_image(nhdr, ImageReadOptions{}), grid, 1, test_label, 1e-6);
+        write_bytes(raw, data.substr(0, data.size() / 2));
+        check_refused(nhdr, ImageReadOptions{}, raw, {"truncated", "sizes 12 10 8"});
+    }
+}
+
+TEST_CASE("NaN and inf voxels of a float image are refused with or without threshold", "[io]") {
+    // A NaN voxel compared false with the threshold and silently became background.
+    const std::string dir = frontmesh::fixtures::temp_dir("io_float_nan");
+    const Grid grid = rotated_grid();
+    ImageReadOptions threshold;
+    threshold.threshold = 1.5;
+    for (const double bad :
+         {std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::infinity(),
+          -std::numeric_limits<double>::infinity()}) {
+        const auto image = make_image<float>(grid, [&](int i, int j, int k) {
+            if (i == 4 && j == 2 && k == 1) return bad;
+            if (i == 5 && j == 5 && k == 4) return bad;  // a later one: not the one named
+            return double(test_label(i, j, k));
+        });
+        const std::string path = dir + "/bad.nrrd";
+        write_image(image.GetPointer(), path);
+        const std::string value = std::isnan(bad) ? "nan" : bad > 0 ? "inf" : "-inf";
+        for (const ImageReadOptions& options : {ImageReadOptions{}, threshold}) {
+            const std::string message = input_error_of([&] { read_label_image(path, options); });
+            INFO(message);
+            CHECK(message.find("'" + path + "'") != std::string::npos);
+            CHECK(message.find("voxel (4, 2, 1) is " + value + ";") != std::string::npos);
+        }
+    }
+    // Finite grayscale values still segment as before.
+    const auto gray = make_image<double>(grid, [](int i, int, int) { return 0.5 * i; });
+    write_image(gray.GetPointer(), dir + "/gray.mha");
+    check_image(
+        read_label_image(dir + "/gray.mha", threshold), grid, 1,
+        [](int i, int, int) { return 0.5 * i > 1.5 ? 1 : 0; }, 1e-6);
+}
+
+TEST_CASE("named pipes and devices and sockets are refused unopened", "[io]") {
+    // Opening a FIFO for reading blocks until a writer comes: a run hung. Every path the
+    // reader would open is tested by type first; none of these calls may block.
+    const std::string dir = frontmesh::fixtures::temp_dir("io_special_files");
+    const std::string fifo = dir + "/pipe.nii";
+    REQUIRE(::mkfifo(fifo.c_str(), 0600) == 0);
+    check_refused(fifo, ImageReadOptions{}, fifo, {"named pipe (FIFO)"});
+    check_refused("/dev/zero", ImageReadOptions{}, "/dev/zero", {"character device"});
+
+    const std::string socket_path = dir + "/socket.mha";
+    const int socket_fd = ::socket(AF_UNIX, SOCK_STREAM, 0);
+    REQUIRE(socket_fd >= 0);
+    sockaddr_un address{};
+    address.sun_family = AF_UNIX;
+    REQUIRE(socket_path.size() < sizeof address.sun_path);
+    std::strcpy(address.sun_path, socket_path.c_str());
+    REQUIRE(::bind(socket_fd, reinterpret_cast<sockaddr*>(&address), sizeof address) == 0);
+    check_refused(socket_path, ImageReadOptions{}, socket_path, {"socket"});
+    ::close(socket_fd);
+
+    SECTION("a data file named by the header") {
+        Grid grid;
+        const auto image = make_image<unsigned char>(grid, as_value);
+        const std::string mhd = dir + "/labels.mhd";
+        write_image(image.GetPointer(), mhd);
+        fs::remove(dir + "/labels.raw");
+        REQUIRE(::mkfifo((dir + "/labels.raw").c_str(), 0600) == 0);
+        check_refused(mhd, ImageReadOptions{}, dir + "/labels.raw",
+                      {"ElementDataFile", "named pipe"});
+
+        const std::string nhdr = dir + "/labels.nhdr";
+        write_bytes(nhdr,
+                    "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 7 6 5\nencoding: raw\n"
+                    "data file: labels.raw\n");
+        check_refused(nhdr, ImageReadOptions{}, dir + "/labels.raw", {"data file", "named pipe"});
+    }
+    SECTION("an entry of a slice folder or a slice a pattern names") {
+        Grid grid;
+        grid.origin.setZero();
+        const auto image = make_image<unsigned char>(grid, as_value);
+        const std::string stack = dir + "/stack";
+        fs::create_directory(stack);
+        std::vector<std::string> names;
+        for (int k = 0; k < grid.size[2]; ++k)
+            names.push_back(stack + "/slice_" + std::to_string(k) + ".png");
+        write_slices(image.GetPointer(), names);
+        ImageReadOptions options;
+        options.spacing = grid.spacing;
+        REQUIRE_NOTHROW(read_label_image(stack + "/slice_%d.png", options));
+        const std::string slice = stack + "/slice_2.png";
+        fs::remove(slice);
+        REQUIRE(::mkfifo(slice.c_str(), 0600) == 0);
+        check_refused(stack + "/slice_%d.png", options, slice, {"slice", "named pipe"});
+        check_refused(stack, options, slice, {"folder entry", "named pipe"});
     }
 }
 

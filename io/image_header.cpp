@@ -1,0 +1,856 @@
+#include "io/image_header.h"
+
+#include <algorithm>
+#include <array>
+#include <cctype>
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <map>
+#include <memory>
+#include <optional>
+#include <sstream>
+#include <string_view>
+#include <utility>
+
+#include <zlib.h>
+
+#include "pipeline/core/error.h"
+
+namespace frontmesh::io {
+namespace {
+
+namespace fs = std::filesystem;
+
+/// Smallest |det| of a direction matrix with unit columns (the volume of its parallelepiped)
+/// below which it counts as singular; the same bound as for the direction ITK reports.
+constexpr double min_direction_determinant = 1e-6;
+/// A text header (MetaImage, NRRD) longer than this is taken as damaged.
+constexpr std::size_t max_text_header_bytes = std::size_t{1} << 20;
+
+std::string lowercase(std::string text) {
+    std::transform(text.begin(), text.end(), text.begin(),
+                   [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+    return text;
+}
+
+bool ends_with_nocase(const std::string& text, std::string_view suffix) {
+    return lowercase(text).ends_with(suffix);
+}
+
+std::string trimmed(const std::string& text) {
+    const auto first = text.find_first_not_of(" \t\r\n");
+    if (first == std::string::npos) return "";
+    const auto last = text.find_last_not_of(" \t\r\n");
+    return text.substr(first, last - first + 1);
+}
+
+/// A number as a user wrote it: "nan", "inf", "1e+30", "0.5".
+std::string number_text(double value) {
+    std::ostringstream text;
+    text << value;
+    return text.str();
+}
+
+std::string join(const std::vector<std::uint64_t>& values, const char* separator) {
+    std::string text;
+    for (std::uint64_t v : values) text += (text.empty() ? "" : separator) + std::to_string(v);
+    return text;
+}
+
+/// What a file that is not a regular file is, for the message.
+std::string kind_of(const fs::file_status& status) {
+    if (fs::is_fifo(status)) return "a named pipe (FIFO)";
+    if (fs::is_character_file(status)) return "a character device";
+    if (fs::is_block_file(status)) return "a block device";
+    if (fs::is_socket(status)) return "a socket";
+    if (fs::is_directory(status)) return "a folder";
+    return "not a regular file";
+}
+
+std::uint64_t file_size_of(const std::string& file) {
+    std::error_code ec;
+    const auto size = fs::file_size(file, ec);
+    return ec ? 0 : static_cast<std::uint64_t>(size);
+}
+
+/// Determinant of the 3x3 matrix with columns `c`, each scaled to unit length (0 when a
+/// column is zero): 1 for a rotation, near 0 for a singular matrix.
+double unit_column_determinant(std::array<std::array<double, 3>, 3> c) {
+    for (auto& column : c) {
+        const double norm =
+            std::sqrt(column[0] * column[0] + column[1] * column[1] + column[2] * column[2]);
+        if (!(norm > 0.0)) return 0.0;
+        for (double& x : column) x /= norm;
+    }
+    return c[0][0] * (c[1][1] * c[2][2] - c[2][1] * c[1][2]) -
+           c[1][0] * (c[0][1] * c[2][2] - c[2][1] * c[0][2]) +
+           c[2][0] * (c[0][1] * c[1][2] - c[1][1] * c[0][2]);
+}
+
+/// Throws InputError when a data stream holds `present` bytes, fewer than the `needed` ones;
+/// `what` names the data file when it is not the image itself, `because` the header fields.
+void check_data_size(const std::string& path, const std::string& what, std::uint64_t present,
+                     std::uint64_t needed, const std::string& because) {
+    if (present < needed)
+        FM_THROW(InputError, image_prefix(path) + what + "is truncated: it holds " +
+                                 std::to_string(present) + " of the " + std::to_string(needed) +
+                                 " bytes " + because);
+}
+
+/// Bytes of `extents` voxels of `bytes` each; called after check_voxel_count, so no overflow.
+std::uint64_t data_bytes(const std::vector<std::uint64_t>& extents, std::uint64_t bytes) {
+    std::uint64_t total = bytes;
+    for (std::uint64_t e : extents) total *= e;
+    return total;
+}
+
+// ---------------------------------------------------------------------------------------
+// NIfTI-1 (and Analyze 7.5, its ancestor) and NIfTI-2: binary headers, fields at fixed
+// offsets (nifti1.h, nifti2.h), in the byte order sizeof_hdr reveals.
+
+/// A field of a binary header at byte `offset`, swapped when the file's byte order differs.
+template <class T>
+T field(const unsigned char* header, std::size_t offset, bool swap) {
+    unsigned char bytes[sizeof(T)];
+    std::memcpy(bytes, header + offset, sizeof(T));
+    if (swap) std::reverse(bytes, bytes + sizeof(T));
+    T value;
+    std::memcpy(&value, bytes, sizeof(T));
+    return value;
+}
+
+/// Bytes per voxel of a NIfTI datatype code; 0 for a code NIfTI does not define (or DT_BINARY,
+/// which niftilib does not read).
+std::uint64_t nifti_datatype_bytes(int datatype) {
+    switch (datatype) {
+        case 2:
+        case 256:
+            return 1;  // uint8, int8
+        case 4:
+        case 512:
+            return 2;  // int16, uint16
+        case 8:
+        case 768:
+        case 16:
+        case 2304:
+            return 4;  // int32, uint32, float32, rgba32
+        case 128:
+            return 3;  // rgb24
+        case 32:
+        case 64:
+        case 1024:
+        case 1280:
+            return 8;  // complex64, float64, int64, uint64
+        case 1536:
+        case 1792:
+            return 16;  // float128, complex128
+        case 2048:
+            return 32;  // complex256
+        default:
+            return 0;
+    }
+}
+
+/// The header fields of a NIfTI-1/-2 or Analyze header that are checked, widened to one type.
+struct NiftiHeader {
+    int version = 1;          // 1 (or Analyze when !is_nifti), 2
+    bool is_nifti = true;     // magic "n+1"/"ni1"/"n+2"/"ni2"; Analyze 7.5 has none
+    bool single_file = true;  // magic "n+1"/"n+2": data in the same file after the header
+    std::int64_t rank = 0;
+    std::array<std::int64_t, 8> dim{};
+    int datatype = 0;
+    std::array<double, 8> pixdim{};
+    double vox_offset = 0.0;
+    double scl_slope = 0.0;
+    double scl_inter = 0.0;
+    int qform_code = 0;
+    int sform_code = 0;
+    std::array<double, 6> quatern{};  // quatern_b, _c, _d, qoffset_x, _y, _z
+    std::array<double, 12> srow{};    // srow_x, srow_y, srow_z, 4 values each
+    int xyz_units = 0;
+    std::size_t size = 348;
+};
+
+/// Header file and data file of a NIfTI or Analyze image given by either name.
+struct NiftiFiles {
+    std::string header;
+    std::string data;
+};
+
+std::optional<NiftiFiles> nifti_files(const std::string& file) {
+    const std::string name = lowercase(file);
+    if (name.ends_with(".nii") || name.ends_with(".nii.gz")) return NiftiFiles{file, file};
+    auto stem_of = [&](std::size_t suffix) { return file.substr(0, file.size() - suffix); };
+    std::string stem;
+    if (name.ends_with(".hdr"))
+        stem = stem_of(4);
+    else if (name.ends_with(".img"))
+        stem = stem_of(4);
+    else if (name.ends_with(".img.gz"))
+        stem = stem_of(7);
+    else
+        return std::nullopt;
+    const bool upper = file.size() >= 3 && std::isupper(static_cast<unsigned char>(file.back()));
+    NiftiFiles files;
+    files.header = name.ends_with(".hdr") ? file : stem + (upper ? ".HDR" : ".hdr");
+    if (!name.ends_with(".hdr")) {
+        files.data = file;
+    } else {
+        files.data = stem + (upper ? ".IMG" : ".img");
+        if (!fs::exists(files.data) && fs::exists(files.data + ".gz")) files.data += ".gz";
+    }
+    return files;
+}
+
+/// Reads the header of a NIfTI-1/-2 or Analyze file through zlib (plain files pass through).
+NiftiHeader read_nifti_header(const std::string& path, const std::string& file) {
+    errno = 0;
+    const std::unique_ptr<gzFile_s, int (*)(gzFile)> stream(gzopen(file.c_str(), "rb"), gzclose);
+    if (!stream)
+        FM_THROW(InputError, image_prefix(path) + "NIfTI header '" + file +
+                                 "' cannot be opened: " + std::strerror(errno));
+    std::array<unsigned char, 540> h{};
+    const int got = gzread(stream.get(), h.data(), static_cast<unsigned>(h.size()));
+    const std::string where = image_prefix(path) + "NIfTI header" +
+                              (file == path ? std::string() : " '" + file + "'") + ": ";
+    if (got < 4)
+        FM_THROW(InputError, where + "the file holds " + std::to_string(std::max(got, 0)) +
+                                 " bytes, fewer than a header");
+
+    NiftiHeader n;
+    // sizeof_hdr (348 for NIfTI-1 and Analyze, 540 for NIfTI-2) tells version and byte order.
+    const auto size_host = field<std::int32_t>(h.data(), 0, false);
+    const auto size_swapped = field<std::int32_t>(h.data(), 0, true);
+    if (size_host != 348 && size_host != 540 && size_swapped != 348 && size_swapped != 540)
+        FM_THROW(InputError, where + "sizeof_hdr is " + std::to_string(size_host) +
+                                 "; expected 348 (NIfTI-1) or 540 (NIfTI-2)");
+    const bool swap = size_host != 348 && size_host != 540;
+    n.version = (swap ? size_swapped : size_host) == 540 ? 2 : 1;
+    n.size = n.version == 2 ? 540 : 348;
+    if (got < static_cast<int>(n.size))
+        FM_THROW(InputError, where + "the header is truncated: the file holds " +
+                                 std::to_string(got) + " of its " + std::to_string(n.size) +
+                                 " bytes");
+
+    const unsigned char* p = h.data();
+    if (n.version == 2) {
+        const std::string_view magic(reinterpret_cast<const char*>(p) + 4, 3);
+        n.is_nifti = magic == "n+2" || magic == "ni2";
+        n.single_file = magic == "n+2";
+        n.datatype = field<std::int16_t>(p, 12, swap);
+        for (int d = 0; d < 8; ++d) n.dim[d] = field<std::int64_t>(p, 16 + 8 * d, swap);
+        for (int d = 0; d < 8; ++d) n.pixdim[d] = field<double>(p, 104 + 8 * d, swap);
+        n.vox_offset = static_cast<double>(field<std::int64_t>(p, 168, swap));
+        n.scl_slope = field<double>(p, 176, swap);
+        n.scl_inter = field<double>(p, 184, swap);
+        n.qform_code = field<std::int32_t>(p, 344, swap);
+        n.sform_code = field<std::int32_t>(p, 348, swap);
+        for (int i = 0; i < 6; ++i) n.quatern[i] = field<double>(p, 352 + 8 * i, swap);
+        for (int i = 0; i < 12; ++i) n.srow[i] = field<double>(p, 400 + 8 * i, swap);
+        n.xyz_units = field<std::int32_t>(p, 500, swap) & 0x07;
+    } else {
+        const std::string_view magic(reinterpret_cast<const char*>(p) + 344, 3);
+        n.is_nifti = magic == "n+1" || magic == "ni1";
+        n.single_file = magic == "n+1";
+        for (int d = 0; d < 8; ++d) n.dim[d] = field<std::int16_t>(p, 40 + 2 * d, swap);
+        n.datatype = field<std::int16_t>(p, 70, swap);
+        for (int d = 0; d < 8; ++d) n.pixdim[d] = field<float>(p, 76 + 4 * d, swap);
+        n.vox_offset = field<float>(p, 108, swap);
+        n.scl_slope = field<float>(p, 112, swap);
+        n.scl_inter = field<float>(p, 116, swap);
+        n.xyz_units = p[123] & 0x07;
+        n.qform_code = field<std::int16_t>(p, 252, swap);
+        n.sform_code = field<std::int16_t>(p, 254, swap);
+        for (int i = 0; i < 6; ++i) n.quatern[i] = field<float>(p, 256 + 4 * i, swap);
+        for (int i = 0; i < 12; ++i) n.srow[i] = field<float>(p, 280 + 4 * i, swap);
+    }
+    n.rank = n.dim[0];
+    return n;
+}
+
+/// Millimetres per unit of the header's xyzt_units, as ITK's NiftiImageIO scales spacing.
+double nifti_unit_mm(int xyz_units) {
+    switch (xyz_units) {
+        case 1:
+            return 1e3;  // NIFTI_UNITS_METER
+        case 3:
+            return 1e-3;  // NIFTI_UNITS_MICRON
+        default:
+            return 1.0;  // NIFTI_UNITS_MM, or unknown: ITK takes mm
+    }
+}
+
+/// Bytes of the data stream of `file` (decompressing it when gzip), counting at most `limit`.
+std::uint64_t stream_bytes(const std::string& file, std::uint64_t limit) {
+    if (!ends_with_nocase(file, ".gz")) return file_size_of(file);
+    const std::unique_ptr<gzFile_s, int (*)(gzFile)> stream(gzopen(file.c_str(), "rb"), gzclose);
+    if (!stream) return 0;
+    gzbuffer(stream.get(), 1u << 17);
+    std::vector<unsigned char> chunk(1u << 20);
+    std::uint64_t present = 0;
+    while (present < limit) {
+        const auto want =
+            static_cast<unsigned>(std::min<std::uint64_t>(chunk.size(), limit - present));
+        const int got = gzread(stream.get(), chunk.data(), want);
+        if (got <= 0) break;
+        present += static_cast<std::uint64_t>(got);
+    }
+    return present;
+}
+
+void check_nifti(const std::string& path, const std::string& file, bool check_spacing_values) {
+    const auto files = nifti_files(file);
+    if (!files) return;
+    if (files->header != file) require_regular_file(path, files->header, "NIfTI header file");
+    const NiftiHeader n = read_nifti_header(path, files->header);
+    const std::string where = image_prefix(path) + "NIfTI header" +
+                              (files->header == path ? std::string() : " '" + files->header + "'") +
+                              ": ";
+    auto fail = [&](const std::string& what) { FM_THROW(InputError, where + what); };
+    auto finite = [&](const std::string& name, double value) {
+        if (!std::isfinite(value)) fail(name + " is " + number_text(value) + "; it must be finite");
+    };
+
+    if (n.rank < 1 || n.rank > 7)
+        fail("dim[0] (the number of dimensions) is " + std::to_string(n.rank) +
+             "; expected 1 to 7");
+    std::vector<std::uint64_t> extents;
+    for (int d = 1; d <= n.rank; ++d) {
+        if (n.dim[d] < 1)
+            fail("dim[" + std::to_string(d) + "] is " + std::to_string(n.dim[d]) +
+                 "; every extent must be at least 1");
+        extents.push_back(static_cast<std::uint64_t>(n.dim[d]));
+    }
+    check_voxel_count(path, "NIfTI header: dim[1.." + std::to_string(n.rank) + "]", extents);
+    const std::uint64_t voxel_bytes = nifti_datatype_bytes(n.datatype);
+    if (voxel_bytes == 0)
+        fail("datatype " + std::to_string(n.datatype) +
+             " is not a NIfTI voxel type frontmesh reads");
+
+    if (check_spacing_values) {
+        // ITK takes the magnitude (a negative pixdim flips nothing) in the header's unit.
+        const double unit = nifti_unit_mm(n.xyz_units);
+        for (int d = 1; d <= std::min<std::int64_t>(n.rank, 3); ++d)
+            check_spacing(path, "NIfTI header: pixdim[" + std::to_string(d) + "]",
+                          std::abs(n.pixdim[d]) * unit);
+    }
+    if (!std::isfinite(n.vox_offset) || n.vox_offset < 0.0)
+        fail("vox_offset is " + number_text(n.vox_offset) + "; it must be a byte offset >= 0");
+
+    if (n.is_nifti) {
+        finite("scl_slope", n.scl_slope);
+        finite("scl_inter", n.scl_inter);
+        if (n.qform_code > 0) {
+            static const char* const names[] = {"quatern_b", "quatern_c", "quatern_d",
+                                                "qoffset_x", "qoffset_y", "qoffset_z"};
+            for (int i = 0; i < 6; ++i) finite(names[i], n.quatern[i]);
+        }
+        if (n.sform_code > 0) {
+            static const char* const rows[] = {"srow_x", "srow_y", "srow_z"};
+            for (int i = 0; i < 12; ++i)
+                finite(std::string(rows[i / 4]) + "[" + std::to_string(i % 4) + "]", n.srow[i]);
+            std::array<std::array<double, 3>, 3> columns{};
+            for (int r = 0; r < 3; ++r)
+                for (int c = 0; c < 3; ++c) columns[c][r] = n.srow[4 * r + c];
+            if (std::abs(unit_column_determinant(columns)) < min_direction_determinant)
+                fail("the sform (srow_x, srow_y, srow_z with sform_code " +
+                     std::to_string(n.sform_code) + ") is singular");
+        }
+    }
+
+    // niftilib fills the voxels missing from a truncated file with 0 and reports success,
+    // and reads what the header announces before that: compare the bytes present first.
+    require_regular_file(path, files->data, "NIfTI data file");
+    const bool same_file = files->data == files->header;
+    // A .nii without the single-file magic "n+1"/"n+2" keeps its voxels elsewhere (niftilib
+    // then looks for a .img); ITK reports that case.
+    if (same_file && !n.single_file) return;
+    std::uint64_t start = static_cast<std::uint64_t>(n.vox_offset);
+    if (same_file) start = std::max<std::uint64_t>(start, n.version == 2 ? 544 : 352);
+    const std::uint64_t needed = start + data_bytes(extents, voxel_bytes);
+    const std::uint64_t present = stream_bytes(files->data, needed);
+    check_data_size(path, same_file ? "" : "NIfTI data file '" + files->data + "' ", present,
+                    needed, "its NIfTI header announces (dim, datatype, vox_offset)");
+}
+
+// ---------------------------------------------------------------------------------------
+// MetaImage (.mha, .mhd): "Key = Value" lines ending with ElementDataFile (MetaIO's keys are
+// case-sensitive), then the data or the name of the file holding it.
+
+/// Bytes per voxel of a MetaIO ElementType (metaTypes.h MET_ValueTypeSize); 0 when unknown.
+std::uint64_t meta_type_bytes(const std::string& type) {
+    static const std::map<std::string, std::uint64_t> sizes = {{"MET_ASCII_CHAR", 1},
+                                                               {"MET_CHAR", 1},
+                                                               {"MET_UCHAR", 1},
+                                                               {"MET_SHORT", 2},
+                                                               {"MET_USHORT", 2},
+                                                               {"MET_INT", 4},
+                                                               {"MET_UINT", 4},
+                                                               {"MET_LONG", 4},
+                                                               {"MET_ULONG", 4},
+                                                               {"MET_LONG_LONG", 8},
+                                                               {"MET_ULONG_LONG", 8},
+                                                               {"MET_FLOAT", 4},
+                                                               {"MET_DOUBLE", 8},
+                                                               {"MET_CHAR_ARRAY", 1},
+                                                               {"MET_UCHAR_ARRAY", 1},
+                                                               {"MET_SHORT_ARRAY", 2},
+                                                               {"MET_USHORT_ARRAY", 2},
+                                                               {"MET_INT_ARRAY", 4},
+                                                               {"MET_UINT_ARRAY", 4},
+                                                               {"MET_LONG_ARRAY", 4},
+                                                               {"MET_ULONG_ARRAY", 4},
+                                                               {"MET_LONG_LONG_ARRAY", 8},
+                                                               {"MET_ULONG_LONG_ARRAY", 8},
+                                                               {"MET_FLOAT_ARRAY", 4},
+                                                               {"MET_DOUBLE_ARRAY", 8},
+                                                               {"MET_FLOAT_MATRIX", 4}};
+    const auto it = sizes.find(type);
+    return it == sizes.end() ? 0 : it->second;
+}
+
+/// Whitespace-separated numbers of a header value; nullopt when one token is not a number.
+std::optional<std::vector<double>> parse_numbers(const std::string& value) {
+    std::vector<double> numbers;
+    std::istringstream tokens(value);
+    for (std::string token; tokens >> token;) {
+        char* end = nullptr;
+        const double number = std::strtod(token.c_str(), &end);
+        if (end == token.c_str() || *end != '\0') return std::nullopt;
+        numbers.push_back(number);
+    }
+    return numbers;
+}
+
+/// One checked header of text key/value lines, with the messages' common start.
+class TextHeader {
+public:
+    TextHeader(const std::string& path, const std::string& file, const std::string& format)
+        : where_(image_prefix(path) + format + " header" +
+                 (file == path ? std::string() : " '" + file + "'") + ": ") {}
+
+    [[noreturn]] void fail(const std::string& what) const { FM_THROW(InputError, where_ + what); }
+
+    /// `count` numbers (at least) of `value`, the value of `key`.
+    std::vector<double> numbers(const std::string& key, const std::string& value,
+                                std::size_t count) const {
+        auto values = parse_numbers(value);
+        if (!values) fail(key + " '" + value + "' is not a list of numbers");
+        if (values->size() < count)
+            fail(key + " '" + value + "' has " + std::to_string(values->size()) +
+                 " values; expected " + std::to_string(count));
+        values->resize(count);
+        return *values;
+    }
+
+    /// One whole number of `value` within [lo, hi].
+    std::int64_t integer(const std::string& key, const std::string& value, std::int64_t lo,
+                         std::int64_t hi) const {
+        const auto n = numbers(key, value, 1).front();
+        if (!(n >= static_cast<double>(lo) && n <= static_cast<double>(hi)) || n != std::trunc(n))
+            fail(key + " is " + trimmed(value) + "; expected a whole number from " +
+                 std::to_string(lo) + " to " + std::to_string(hi));
+        return static_cast<std::int64_t>(n);
+    }
+
+    /// Extents of `value`, each a whole number >= 1.
+    std::vector<std::uint64_t> extents(const std::string& key, const std::string& value,
+                                       std::size_t count) const {
+        std::vector<std::uint64_t> extents;
+        for (double n : numbers(key, value, count)) {
+            if (!(n >= 1.0) || n != std::trunc(n) || n > 9e15)
+                fail(key + " '" + trimmed(value) + "' holds " + number_text(n) +
+                     "; every extent must be a whole number, at least 1");
+            extents.push_back(static_cast<std::uint64_t>(n));
+        }
+        return extents;
+    }
+
+    void require_finite(const std::string& key, const std::vector<double>& values) const {
+        for (std::size_t i = 0; i < values.size(); ++i)
+            if (!std::isfinite(values[i]))
+                fail(key + " value " + std::to_string(i + 1) + " is " + number_text(values[i]) +
+                     "; it must be finite");
+    }
+
+    /// A 3x3 matrix with columns `columns` must be non-singular.
+    void require_nonsingular(const std::string& key,
+                             const std::array<std::array<double, 3>, 3>& columns) const {
+        if (std::abs(unit_column_determinant(columns)) < min_direction_determinant)
+            fail(key + " is singular");
+    }
+
+private:
+    std::string where_;
+};
+
+/// Lines of a text header from `in` until `is_last(line)` or `stop_at_blank` meets an empty
+/// line; sets `end` to the offset of the byte after the header.
+std::vector<std::string> header_lines(std::istream& in, bool stop_at_blank,
+                                      const std::function<bool(const std::string&)>& is_last,
+                                      std::uint64_t& end, const TextHeader& header) {
+    std::vector<std::string> lines;
+    std::uint64_t read = 0;
+    for (std::string line; std::getline(in, line);) {
+        read += line.size() + (in.eof() ? 0 : 1);
+        if (read > max_text_header_bytes)
+            header.fail("the header is longer than " + std::to_string(max_text_header_bytes) +
+                        " bytes");
+        if (!line.empty() && line.back() == '\r') line.pop_back();
+        if (stop_at_blank && line.empty()) break;
+        lines.push_back(line);
+        if (is_last(line)) break;
+    }
+    end = read;
+    return lines;
+}
+
+/// The folder relative names in a header are resolved against.
+std::string beside(const std::string& header_file, const std::string& name) {
+    const fs::path p(name);
+    if (p.is_absolute()) return name;
+    return (fs::path(header_file).parent_path() / p).string();
+}
+
+void check_metaimage(const std::string& path, const std::string& file, bool check_spacing_values) {
+    const TextHeader header(path, file, "MetaImage");
+    std::ifstream in(file, std::ios::binary);
+    if (!in) header.fail("the file cannot be opened");
+    std::uint64_t header_end = 0;
+    const auto lines = header_lines(
+        in, false,
+        [](const std::string& line) { return trimmed(line).rfind("ElementDataFile", 0) == 0; },
+        header_end, header);
+
+    std::map<std::string, std::string> keys;
+    for (const std::string& line : lines) {
+        const auto eq = line.find('=');
+        if (eq == std::string::npos) continue;
+        keys[trimmed(line.substr(0, eq))] = trimmed(line.substr(eq + 1));
+    }
+    auto value_of = [&](std::initializer_list<const char*> names)
+        -> std::optional<std::pair<std::string, std::string>> {
+        for (const char* name : names)
+            if (const auto it = keys.find(name); it != keys.end()) return *it;
+        return std::nullopt;
+    };
+    auto required = [&](const char* name) {
+        const auto it = keys.find(name);
+        if (it == keys.end()) header.fail(std::string(name) + " is missing");
+        return it->second;
+    };
+
+    const auto ndims = static_cast<std::size_t>(header.integer("NDims", required("NDims"), 1, 10));
+    const std::vector<std::uint64_t> extents =
+        header.extents("DimSize", required("DimSize"), ndims);
+    std::vector<std::uint64_t> counted = extents;
+    if (const auto channels = value_of({"ElementNumberOfChannels"}))
+        counted.push_back(static_cast<std::uint64_t>(
+            header.integer(channels->first, channels->second, 1, 1 << 16)));
+    check_voxel_count(path, "MetaImage header: DimSize", counted);
+
+    const std::string type = required("ElementType");
+    const std::uint64_t voxel_bytes = meta_type_bytes(type);
+    if (voxel_bytes == 0) header.fail("ElementType '" + type + "' is not a MetaImage voxel type");
+
+    if (const auto spacing = value_of({"ElementSpacing", "ElementSize"})) {
+        const auto values = header.numbers(spacing->first, spacing->second, ndims);
+        if (check_spacing_values)
+            for (std::size_t d = 0; d < std::min<std::size_t>(ndims, 3); ++d)
+                check_spacing(
+                    path, "MetaImage header: " + spacing->first + " value " + std::to_string(d + 1),
+                    values[d]);
+    }
+    if (const auto origin = value_of({"Offset", "Position", "Origin"}))
+        header.require_finite(origin->first, header.numbers(origin->first, origin->second, ndims));
+    if (const auto matrix = value_of({"TransformMatrix", "Rotation", "Orientation"})) {
+        const auto values = header.numbers(matrix->first, matrix->second, ndims * ndims);
+        header.require_finite(matrix->first, values);
+        if (ndims == 3) {
+            // MetaIO stores the matrix row by row with rows as the axis directions.
+            std::array<std::array<double, 3>, 3> columns{};
+            for (int a = 0; a < 3; ++a)
+                for (int r = 0; r < 3; ++r) columns[a][r] = values[3 * a + r];
+            header.require_nonsingular(matrix->first, columns);
+        }
+    }
+
+    std::int64_t header_size = 0;
+    if (const auto skip = value_of({"HeaderSize"}))
+        header_size = header.integer(skip->first, skip->second, -1, std::int64_t{1} << 50);
+    auto is_true = [&](const char* name, bool fallback) {
+        const auto v = value_of({name});
+        if (!v || v->second.empty()) return fallback;
+        const char c = v->second.front();
+        return c == 'T' || c == 't' || c == '1';
+    };
+    const bool compressed = is_true("CompressedData", false);
+    const bool binary = is_true("BinaryData", true);
+
+    const std::string data_name = required("ElementDataFile");
+    std::istringstream data_tokens(data_name);
+    std::vector<std::string> tokens;
+    for (std::string token; data_tokens >> token;) tokens.push_back(token);
+    // LIST and printf patterns ("slice%03d.raw 1 40 1") name one file per slice.
+    if (tokens.empty() || tokens.front() == "LIST" ||
+        (tokens.size() >= 3 && tokens.front().find('%') != std::string::npos))
+        return;
+    const bool local = data_name == "LOCAL" || data_name == "Local" || data_name == "local";
+    const std::string data_file = local ? file : beside(file, data_name);
+    if (!local) require_regular_file(path, data_file, "data file (ElementDataFile)");
+    if (compressed || !binary) return;
+
+    const std::uint64_t bytes = data_bytes(counted, voxel_bytes);
+    const std::uint64_t start =
+        local ? header_end : static_cast<std::uint64_t>(std::max<std::int64_t>(header_size, 0));
+    check_data_size(
+        path, local ? "" : "data file '" + data_file + "' (ElementDataFile) ",
+        file_size_of(data_file), start + bytes,
+        "its MetaImage header announces (DimSize " + join(extents, " ") + " of " + type +
+            (start > 0 ? " after " + std::to_string(start) + " header bytes" : "") + ")");
+}
+
+// ---------------------------------------------------------------------------------------
+// NRRD (.nrrd, .nhdr): "NRRD000N", then "field: value" lines (field names case-insensitive,
+// spaces optional), "key:=value" pairs and "#" comments, up to an empty line and the data.
+
+/// Bytes per voxel of a NRRD type name (lower case, single spaces); 0 when unknown.
+std::uint64_t nrrd_type_bytes(const std::string& type) {
+    static const std::map<std::string, std::uint64_t> sizes = {{"signed char", 1},
+                                                               {"int8", 1},
+                                                               {"int8_t", 1},
+                                                               {"uchar", 1},
+                                                               {"unsigned char", 1},
+                                                               {"uint8", 1},
+                                                               {"uint8_t", 1},
+                                                               {"short", 2},
+                                                               {"short int", 2},
+                                                               {"signed short", 2},
+                                                               {"signed short int", 2},
+                                                               {"int16", 2},
+                                                               {"int16_t", 2},
+                                                               {"ushort", 2},
+                                                               {"unsigned short", 2},
+                                                               {"unsigned short int", 2},
+                                                               {"uint16", 2},
+                                                               {"uint16_t", 2},
+                                                               {"int", 4},
+                                                               {"signed int", 4},
+                                                               {"int32", 4},
+                                                               {"int32_t", 4},
+                                                               {"uint", 4},
+                                                               {"unsigned int", 4},
+                                                               {"uint32", 4},
+                                                               {"uint32_t", 4},
+                                                               {"longlong", 8},
+                                                               {"long long", 8},
+                                                               {"long long int", 8},
+                                                               {"signed long long", 8},
+                                                               {"signed long long int", 8},
+                                                               {"int64", 8},
+                                                               {"int64_t", 8},
+                                                               {"ulonglong", 8},
+                                                               {"unsigned long long", 8},
+                                                               {"unsigned long long int", 8},
+                                                               {"uint64", 8},
+                                                               {"uint64_t", 8},
+                                                               {"float", 4},
+                                                               {"double", 8}};
+    const auto it = sizes.find(type);
+    return it == sizes.end() ? 0 : it->second;
+}
+
+/// The vectors of a "space directions" value: "(1,0,0) (0,1,0) none"; nullopt for "none".
+std::vector<std::optional<std::vector<double>>> nrrd_vectors(const std::string& key,
+                                                             const std::string& value,
+                                                             const TextHeader& header) {
+    std::vector<std::optional<std::vector<double>>> vectors;
+    std::size_t i = 0;
+    while (true) {
+        i = value.find_first_not_of(" \t", i);
+        if (i == std::string::npos) break;
+        if (value.compare(i, 4, "none") == 0) {
+            vectors.emplace_back(std::nullopt);
+            i += 4;
+            continue;
+        }
+        const auto close = value.find(')', i);
+        if (value[i] != '(' || close == std::string::npos)
+            header.fail(key + " '" + value + "' is not a list of (x,y,z) vectors");
+        std::string inner = value.substr(i + 1, close - i - 1);
+        std::replace(inner.begin(), inner.end(), ',', ' ');
+        const auto numbers = parse_numbers(inner);
+        if (!numbers || numbers->empty())
+            header.fail(key + " '" + value + "' is not a list of (x,y,z) vectors");
+        vectors.emplace_back(*numbers);
+        i = close + 1;
+    }
+    return vectors;
+}
+
+void check_nrrd(const std::string& path, const std::string& file, bool check_spacing_values) {
+    const TextHeader header(path, file, "NRRD");
+    std::ifstream in(file, std::ios::binary);
+    if (!in) header.fail("the file cannot be opened");
+    std::string magic;
+    std::getline(in, magic);
+    if (magic.rfind("NRRD000", 0) != 0) header.fail("the first line is not 'NRRD000N'");
+    std::uint64_t header_end = 0;
+    const auto lines = header_lines(
+        in, true, [](const std::string&) { return false; }, header_end, header);
+    header_end += magic.size() + 1;
+
+    std::map<std::string, std::pair<std::string, std::string>>
+        fields;  // normalized -> (name, value)
+    for (const std::string& line : lines) {
+        if (line.empty() || line.front() == '#') continue;
+        const auto colon = line.find(": ");
+        if (colon == std::string::npos || line.find(":=") < colon) continue;
+        std::string name = lowercase(line.substr(0, colon));
+        std::string normal;
+        for (char c : name)
+            if (c != ' ') normal.push_back(c);
+        fields[normal] = {name, trimmed(line.substr(colon + 2))};
+    }
+    auto value_of = [&](const char* normal) -> const std::pair<std::string, std::string>* {
+        const auto it = fields.find(normal);
+        return it == fields.end() ? nullptr : &it->second;
+    };
+    auto required = [&](const char* normal) {
+        const auto* f = value_of(normal);
+        if (!f) header.fail(std::string("'") + normal + "' is missing");
+        return *f;
+    };
+
+    const auto [dimension_name, dimension_value] = required("dimension");
+    const auto dimension =
+        static_cast<std::size_t>(header.integer(dimension_name, dimension_value, 1, 16));
+    const auto [sizes_name, sizes_value] = required("sizes");
+    const std::vector<std::uint64_t> extents = header.extents(sizes_name, sizes_value, dimension);
+    check_voxel_count(path, "NRRD header: sizes", extents);
+
+    const auto [type_name, type_value] = required("type");
+    std::string type;
+    {
+        std::istringstream words(lowercase(type_value));
+        for (std::string word; words >> word;) type += (type.empty() ? "" : " ") + word;
+    }
+    const std::uint64_t voxel_bytes = nrrd_type_bytes(type);
+    if (voxel_bytes == 0)
+        header.fail("type '" + type_value + "' is not a NRRD voxel type frontmesh reads");
+
+    // A NaN spacing means "unknown" in NRRD, which ITK turns into 1 mm: refused like any other
+    // spacing outside the range, for the three axes of a scalar volume.
+    if (const auto* spacings = value_of("spacings")) {
+        const auto values = header.numbers(spacings->first, spacings->second, dimension);
+        if (check_spacing_values && dimension == 3)
+            for (std::size_t d = 0; d < 3; ++d)
+                check_spacing(path, "NRRD header: spacings value " + std::to_string(d + 1),
+                              values[d]);
+    }
+    if (const auto* directions = value_of("spacedirections")) {
+        const auto vectors = nrrd_vectors(directions->first, directions->second, header);
+        if (vectors.size() != dimension)
+            header.fail(directions->first + " has " + std::to_string(vectors.size()) +
+                        " entries; expected " + std::to_string(dimension));
+        std::vector<std::array<double, 3>> spatial;
+        for (const auto& v : vectors) {
+            if (!v) continue;
+            header.require_finite(directions->first, *v);
+            if (v->size() == 3) spatial.push_back({(*v)[0], (*v)[1], (*v)[2]});
+        }
+        if (spatial.size() == 3) {
+            for (std::size_t d = 0; d < 3 && check_spacing_values; ++d)
+                check_spacing(
+                    path,
+                    "NRRD header: " + directions->first + " vector " + std::to_string(d + 1) +
+                        " (its length)",
+                    std::sqrt(spatial[d][0] * spatial[d][0] + spatial[d][1] * spatial[d][1] +
+                              spatial[d][2] * spatial[d][2]));
+            header.require_nonsingular(directions->first, {spatial[0], spatial[1], spatial[2]});
+        }
+    }
+    if (const auto* origin = value_of("spaceorigin")) {
+        const auto vectors = nrrd_vectors(origin->first, origin->second, header);
+        if (vectors.size() != 1 || !vectors.front())
+            header.fail(origin->first + " '" + origin->second + "' is not one (x,y,z) vector");
+        header.require_finite(origin->first, *vectors.front());
+    }
+
+    std::int64_t byte_skip = 0;
+    if (const auto* skip = value_of("byteskip"))
+        byte_skip = header.integer(skip->first, skip->second, -1, std::int64_t{1} << 50);
+    std::string encoding = "raw";
+    if (const auto* e = value_of("encoding")) encoding = lowercase(e->second);
+
+    std::string data_file = file;
+    if (const auto* data = value_of("datafile")) {
+        std::istringstream words(data->second);
+        std::vector<std::string> tokens;
+        for (std::string token; words >> token;) tokens.push_back(token);
+        // LIST and printf patterns ("slice%03d.raw 1 40 1") name one file per slice.
+        if (tokens.empty() || tokens.front() == "LIST" || tokens.size() >= 4) return;
+        data_file = beside(file, data->second);
+        require_regular_file(path, data_file, "data file");
+    }
+    if (encoding != "raw") return;
+    const bool attached = data_file == file;
+    const std::uint64_t start = (attached ? header_end : 0) +
+                                static_cast<std::uint64_t>(std::max<std::int64_t>(byte_skip, 0));
+    check_data_size(path, attached ? "" : "data file '" + data_file + "' ", file_size_of(data_file),
+                    start + data_bytes(extents, voxel_bytes),
+                    "its NRRD header announces (sizes " + join(extents, " ") + " of " + type + ")");
+}
+
+}  // namespace
+
+std::string image_prefix(const std::string& path) { return "input.image: '" + path + "' "; }
+
+void require_regular_file(const std::string& path, const std::string& file,
+                          const std::string& role) {
+    std::error_code ec;
+    const fs::file_status status = fs::status(file, ec);
+    const std::string which = file == path ? std::string() : role + " '" + file + "' ";
+    if (!fs::exists(status)) FM_THROW(InputError, image_prefix(path) + which + "does not exist");
+    if (!fs::is_regular_file(status))
+        FM_THROW(InputError,
+                 image_prefix(path) + which + "is " + kind_of(status) + ", not a regular file");
+}
+
+void check_voxel_count(const std::string& path, const std::string& field,
+                       const std::vector<std::uint64_t>& extents) {
+    double voxels = 1.0;
+    for (std::uint64_t e : extents) voxels *= static_cast<double>(e);
+    if (voxels > static_cast<double>(max_image_voxels))
+        FM_THROW(InputError, image_prefix(path) + field + " " + join(extents, " x ") + " is " +
+                                 number_text(voxels) + " voxels; frontmesh reads at most " +
+                                 std::to_string(max_image_voxels) + " (2^30)");
+}
+
+void check_spacing(const std::string& path, const std::string& field, double spacing_mm) {
+    if (!(spacing_mm >= min_spacing_mm && spacing_mm <= max_spacing_mm))
+        FM_THROW(InputError, image_prefix(path) + field + " is " + number_text(spacing_mm) +
+                                 (std::isfinite(spacing_mm) ? " mm" : "") +
+                                 "; a voxel spacing must be finite and within [" +
+                                 number_text(min_spacing_mm) + ", " + number_text(max_spacing_mm) +
+                                 "] mm (input.spacing replaces a wrong one)");
+}
+
+void check_image_header(const std::string& path, const std::string& file,
+                        bool check_spacing_values) {
+    const std::string name = lowercase(file);
+    if (nifti_files(file)) {
+        check_nifti(path, file, check_spacing_values);
+    } else if (name.ends_with(".mha") || name.ends_with(".mhd")) {
+        check_metaimage(path, file, check_spacing_values);
+    } else if (name.ends_with(".nrrd") || name.ends_with(".nhdr")) {
+        check_nrrd(path, file, check_spacing_values);
+    }
+}
+
+}  // namespace frontmesh::io
