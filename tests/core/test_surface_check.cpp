@@ -1,0 +1,87 @@
+// require_meshable_surface: the tetra stage's precondition on a user's surface (issue 20
+// item 4). Each defect is one InputError naming the defect, the region and a position.
+
+#include <limits>
+
+#include <catch2/catch.hpp>
+
+#include "pipeline/core/error.h"
+#include "pipeline/core/surface_check.h"
+#include "tests/fixtures/phantoms.h"
+
+using Catch::Matchers::Contains;
+using frontmesh::core::InputError;
+using frontmesh::core::require_meshable_surface;
+using frontmesh::core::SurfaceNetwork;
+
+namespace {
+
+// Two octahedra side by side: regions 1 and 2, both closed and outward.
+SurfaceNetwork two_shells() {
+    SurfaceNetwork a = frontmesh::fixtures::octahedron(1.0);
+    const SurfaceNetwork b = frontmesh::fixtures::octahedron(1.0);
+    const auto offset = static_cast<std::int32_t>(a.vertex_count());
+    for (std::size_t v = 0; v < b.vertex_count(); ++v)
+        a.add_vertex(b.point(std::int32_t(v)) + Eigen::Vector3d(5.0, 0.0, 0.0));
+    for (std::size_t f = 0; f < b.face_count(); ++f)
+        a.add_face(b.faces[f][0] + offset, b.faces[f][1] + offset, b.faces[f][2] + offset, 2, 0);
+    return a;
+}
+
+void require_defect(const SurfaceNetwork& s, const std::string& words) {
+    CHECK_THROWS_AS(require_meshable_surface(s, "in.vtp"), InputError);
+    CHECK_THROWS_WITH(require_meshable_surface(s, "in.vtp"),
+                      Contains("in.vtp: ") && Contains(words) && !Contains("\n"));
+}
+
+}  // namespace
+
+TEST_CASE("a closed, oriented, clean surface network is meshable", "[core][surface_check]") {
+    CHECK_NOTHROW(require_meshable_surface(frontmesh::fixtures::octahedron(2.0), "in.vtp"));
+    CHECK_NOTHROW(require_meshable_surface(two_shells(), "in.vtp"));
+    CHECK_NOTHROW(require_meshable_surface(frontmesh::fixtures::uv_sphere(3.0, 12), "in.vtp"));
+}
+
+TEST_CASE("each defect of a user's surface is named with its region and place",
+          "[core][surface_check]") {
+    SurfaceNetwork s = two_shells();
+    SECTION("open") {
+        s.faces.pop_back();
+        s.region_in.pop_back();
+        s.region_out.pop_back();
+        require_defect(s, "open boundary of region 2");
+        CHECK_THROWS_WITH(require_meshable_surface(s, "in.vtp"), Contains("mm"));
+    }
+    SECTION("one face flipped") {
+        std::swap(s.faces[3][0], s.faces[3][1]);
+        require_defect(s, "misoriented boundary of region 1");
+    }
+    SECTION("every face of a region flipped") {
+        for (std::size_t f = 8; f < 16; ++f) std::swap(s.faces[f][0], s.faces[f][1]);
+        require_defect(s, "region 2 encloses -");
+    }
+    SECTION("a face with the same region on both sides") {
+        s.region_out[0] = 1;
+        require_defect(s, "region_out is 1");
+    }
+    SECTION("a face without a region behind it") {
+        s.region_in[0] = 0;
+        require_defect(s, "region_in is 0");
+    }
+    SECTION("a zero-area face") {
+        s.point(s.faces[0][2]) = 0.5 * (s.point(s.faces[0][0]) + s.point(s.faces[0][1]));
+        require_defect(s, "zero area");
+    }
+    SECTION("a vertex id out of range") {
+        s.faces[2][1] = 1000;
+        require_defect(s, "names vertex 1000");
+    }
+    SECTION("a non-finite coordinate") {
+        s.point(0).x() = std::numeric_limits<double>::quiet_NaN();
+        require_defect(s, "non-finite");
+    }
+    SECTION("two shells crossing each other") {
+        for (std::size_t v = 6; v < 12; ++v) s.point(std::int32_t(v)).x() -= 4.5;
+        require_defect(s, "intersect");
+    }
+}
