@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "pipeline/core/huge_pages.h"
+#include "volume/tetra_front.h"
 
 namespace frontmesh::volume {
 
@@ -27,17 +28,13 @@ struct CandidateTet {
                                       ///< base, the faces the tet closes), -1 for none
 };
 
-/// The front as the validity test reads it: node coordinates and each face's three nodes.
+/// The front as the validity test reads it: node coordinates and the front face records.
 struct FrontView {
-    const double* xyz;        ///< 3 per node, mm
-    const std::byte* faces;   ///< face f's nodes: the std::array<std::int32_t, 3> at
-    std::size_t face_stride;  ///< faces + f * face_stride (bytes)
-    double max_edge;          ///< upper bound (mm) of every edge of the faces given as `near`
+    const double* xyz;       ///< 3 per node, mm
+    const FrontFace* faces;  ///< by face id; only the nodes `v` are read
+    double max_edge;         ///< upper bound (mm) of every edge of the faces given as `near`
 
-    const std::array<std::int32_t, 3>& face(std::int32_t f) const {
-        return *reinterpret_cast<const std::array<std::int32_t, 3>*>(
-            faces + static_cast<std::size_t>(f) * face_stride);
-    }
+    const Tri& face(std::int32_t f) const { return faces[f].v; }
     const double* p(std::int32_t v) const { return xyz + 3 * static_cast<std::size_t>(v); }
 };
 

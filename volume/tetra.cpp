@@ -5,9 +5,7 @@
 #include <cmath>
 #include <cstdint>
 #include <exception>
-#include <limits>
 #include <mutex>
-#include <sstream>
 #include <string>
 #include <vector>
 
@@ -15,27 +13,27 @@
 
 #include "pipeline/core/adt.h"
 #include "pipeline/core/error.h"
-#include "pipeline/core/huge_pages.h"
 #include "pipeline/core/predicates.h"
 #include "pipeline/core/quality.h"
 #include "volume/tet_validity.h"
 #include "volume/tetra_front.h"
+#include "volume/tetra_mesher.h"
 
-// The paper's method in this file, in its order: the level loop (RegionMesher::run,
+// The paper's method, §3.1-3.2, in its order: the level loop (RegionMesher::run,
 // mesh_levels), §3.1.2 the initial front (init_front), §3.1.3 the n-th level front setup
-// (setup_level, Eqs. 3-7), §3.1.4/§3.1.5 base selection (run_stage, make_base: Eqs. 8-11),
-// candidates (try_base, collect_candidates: Eqs. 10-12), the tests of step 4
-// (passes_paper_tests; is_valid_tet, whose exact part is volume/tet_validity.h), step 5
-// (add_tet), §3.2 local remeshing (remesh_around), then the closing phase for what the
-// layered front leaves. The front itself (faces, node lists, ADTs, base queue) is
-// volume/tetra_front.h.
+// (setup_level: Eqs. 3-7), §3.1.4/§3.1.5 base selection (run_stage, make_base: Eqs. 8-11),
+// the candidates (try_base, collect_candidates, order_candidates: Eqs. 10-12), the tests of
+// step 4 (passes_paper_tests; is_valid_tet, whose exact part is volume/tet_validity.h), step 5
+// (add_tet) and §3.2 local remeshing (remesh_around). The mesher's data (§3.1.1) is
+// volume/tetra_mesher.h, the front (faces, node lists, ADTs, base queue) volume/tetra_front.h,
+// the closing phase for what the layered front leaves and the merge volume/tetra_region.cpp.
 
 namespace frontmesh::volume {
 
 void validate(const TetraParams& p) {
     if (!(p.stretching > 1.0 && p.stretching <= 2.0))
-        FM_THROW(InputError,
-                 "tetra.stretching must be in (1.0, 2.0], got " + std::to_string(p.stretching));
+        FM_THROW(InputError, "tetra.stretching must be in (1.0, 2.0], got " +
+                                 std::to_string(p.stretching));
     if (p.height_smoothing_iterations < 0 || p.height_smoothing_iterations > 100)
         FM_THROW(InputError, "tetra.height_smoothing_iterations must be in [0, 100], got " +
                                  std::to_string(p.height_smoothing_iterations));
@@ -43,329 +41,14 @@ void validate(const TetraParams& p) {
         FM_THROW(InputError, "tetra.max_remesh_per_node must be in [0, 50], got " +
                                  std::to_string(p.max_remesh_per_node));
     if (!(p.min_angle_deg >= 0.0 && p.min_angle_deg <= 30.0))
-        FM_THROW(InputError,
-                 "tetra.min_angle_deg must be in [0, 30], got " + std::to_string(p.min_angle_deg));
+        FM_THROW(InputError, "tetra.min_angle_deg must be in [0, 30], got " +
+                                 std::to_string(p.min_angle_deg));
     if (p.max_closing_rounds < 0 || p.max_closing_rounds > 100)
         FM_THROW(InputError, "tetra.max_closing_rounds must be in [0, 100], got " +
                                  std::to_string(p.max_closing_rounds));
 }
 
-namespace {
-
-using core::Label;
-using V3 = Eigen::Vector3d;
-using Tet = std::array<std::int32_t, 4>;
-
-constexpr double kDegToRad = 3.14159265358979323846 / 180.0;
-
-// Outward faces of a VTK-positive tet (v0, v1, v2, v3): the right-hand normal of each points
-// away from the opposite vertex.
-constexpr int kTetFace[4][3] = {{0, 2, 1}, {0, 1, 3}, {1, 2, 3}, {2, 0, 3}};
-
-/// Counters of a region's run, reported as `tetra.<name>` (kStatNames).
-enum Stat {
-    kBasesTried,
-    kBasesFailed,
-    kRejectedByTests,  // the paper's quality tests of step 4
-    kInvalid,          // the exact validity test
-    kOnExistingNodes,
-    kOnNewNodes,
-    kStage1Tets,  // §3.1.4
-    kStage2Tets,  // §3.1.5
-    kStatCount
-};
-constexpr const char* kStatNames[kStatCount] = {"bases_tried",
-                                                "bases_failed",
-                                                "candidates_rejected_by_tests",
-                                                "candidates_invalid",
-                                                "tets_on_existing_nodes",
-                                                "tets_on_new_nodes",
-                                                "stage1_tets",
-                                                "stage2_tets"};
-
-/// What one region's mesher hands back for the merge.
-struct RegionResult {
-    Label region = 0;
-    std::int32_t boundary_nodes = 0;            // local ids [0, boundary_nodes) are surface ones
-    std::vector<std::int32_t> global_of_local;  // for the boundary nodes
-    std::vector<double> xyz;                    // every local node
-    std::vector<std::int32_t> level;            // every local node
-    std::vector<Tet> tets;                      // alive tets, local ids
-    std::int64_t remeshes = 0;
-    std::int64_t closing_rounds = 0;
-    std::int64_t closing_tets = 0;
-    std::int32_t levels = 0;
-    std::int64_t stat[kStatCount] = {};
-};
-
-/// What a region's mesher uses of the stage context from its worker thread: log lines and
-/// diagnostics go through one lock, the cancellation check needs none.
-class RegionSink {
-public:
-    RegionSink(core::StageContext& ctx, std::mutex& mutex) : ctx_(ctx), mutex_(mutex) {}
-    void debug(const std::string& message) const {
-        std::lock_guard<std::mutex> lock(mutex_);
-        ctx_.debug(message);
-    }
-    void check_cancelled() const { ctx_.check_cancelled(); }
-    bool wants_diagnostics() const { return ctx_.wants_diagnostics(); }
-    void diagnose(core::Diagnostic diagnostic) const {
-        std::lock_guard<std::mutex> lock(mutex_);
-        ctx_.diagnose(std::move(diagnostic));
-    }
-
-private:
-    const core::StageContext& ctx_;
-    std::mutex& mutex_;
-};
-
-/// The layered advancing front of §3.1-3.2 for one region.
-///
-/// Memory per million elements: nodes 24 B xyz + 48 B attributes + 12 B validity scratch +
-/// about 100 B in the node ADT while on the front; front faces 77 B + about 100 B in the face
-/// ADT (volume/tetra_front.h); tets 16 B + 16 B links + 5 B. About 0.1 GB per million tets in
-/// all (Colin27: 557k tets, 132 MB peak for the whole run).
-class RegionMesher {
-public:
-    RegionMesher(const core::SurfaceNetwork& surface, Label region, const TetraParams& params,
-                 const RegionSink& sink)
-        : params_(params), region_(region), sink_(sink), front_(xyz_, domain_of(surface, region)) {
-        init_front(surface);
-    }
-
-    /// Meshes the region; throws MeshingError when its front cannot be closed.
-    RegionResult run();
-
-private:
-    // ---- §3.1.1 required data ------------------------------------------------------------
-    const TetraParams params_;
-    const Label region_;
-    const RegionSink& sink_;
-    const double sin_min_ = std::sin(params_.min_angle_deg * kDegToRad);  // step 4 angle tests
-    const double cos_min_ = std::cos(params_.min_angle_deg * kDegToRad);
-    const double sin2_min_ = sin_min_ * sin_min_, cos2_min_ = cos_min_ * cos_min_;
-    std::int32_t boundary_nodes_ = 0;
-    std::vector<std::int32_t> global_of_local_;
-
-    // nodes (flat, int32 ids)
-    core::HugeVector<double> xyz_;
-    core::HugeVector<std::int32_t> level_;         // front level at creation + 1 (0 = surface)
-    core::HugeVector<std::int32_t> setup_stamp_;   // last front number that set this node up, -1
-    core::HugeVector<double> normal_;              // Eq. 3, 3 per node
-    core::HugeVector<double> h_;                   // h'_o of Eq. 6 (smoothed), 0 = never set
-    core::HugeVector<double> rs_;                  // r'_s of Eq. 7
-    core::HugeVector<std::int32_t> remesh_count_;  // §3.2
-    core::HugeVector<std::int32_t> tet_head_;      // first corner 4 t + c of the node's tets
-    core::HugeVector<std::int32_t> mark_;          // scratch stamps
-    std::int32_t mark_value_ = 0;
-
-    // the front triangles (normal into the unmeshed part of the region), the ADTs
-    Front front_;
-    TetValidity validity_;  // the exact test of step 4, with its per-node scratch
-
-    // tetrahedra
-    core::HugeVector<Tet> tv_;
-    core::HugeVector<std::int32_t> tnext_;   // 4 per tet
-    core::HugeVector<std::int32_t> tfront_;  // front number at creation
-    core::HugeVector<std::uint8_t> talive_;
-    std::int64_t alive_tets_ = 0;
-
-    // run state
-    std::int32_t front_no_ = 0;
-    std::int64_t remeshes_ = 0;
-    std::int64_t remesh_budget_ = 0;
-    std::vector<std::int32_t> new_faces_;  // faces added by the last add/remove
-    std::vector<std::int32_t> visible_faces_;
-    std::vector<std::int32_t> near_faces_;  // front faces of the current base's search box
-    std::vector<std::int32_t> node_ids_;    // scratch: ADT query results
-    struct Cand {
-        double key0, key1;
-        std::int32_t id;
-    };
-    std::vector<Cand> cands_;  // candidates of the current base
-    std::int64_t stat_[kStatCount] = {};
-
-    // ---- the base of a try (§3.1.4) --------------------------------------------------------
-    /// One front face at a base node a_i, copied with what the tests of step 4 read: the
-    /// face, its other two nodes u, w in cyclic order (the face is (a_i, u, w)), their
-    /// positions and the unit normal. make_base copies the three stars once; every
-    /// candidate's tests then read them from one small array instead of walking the node->face
-    /// lists and the node and face arrays again (the front does not change before try_base
-    /// returns).
-    struct StarFace {
-        std::int32_t f, u, w;
-        V3 U, W, n;
-    };
-    struct Base {
-        std::int32_t f = -1;
-        std::int32_t a[3] = {-1, -1, -1};
-        V3 A[3];
-        V3 n;                                       // unit normal N_k
-        double area = 0;                            // a_k
-        double h = 0;                               // h_k, Eq. 8
-        double eta = 0;                             // Eq. 2
-        V3 xm, xo, xc;                              // centre, reference point, Eq. 11 centre
-        double max_b = 0;                           // max |x_ck B_ki|
-        std::int32_t star_begin[4] = {0, 0, 0, 0};  // star of a_i: stars_[star_begin[i], [i + 1])
-        std::int32_t wing_begin[4] = {0, 0, 0, 0};  // wings of edge a_i a_j: wings_[...]
-        std::int32_t edge_begin[4] = {0, 0, 0, 0};  // front edges at a_i: edges_[...]
-        V3 e[3];  // unit direction of the base edge a_i a_j (j = i + 1 mod 3)
-    };
-    std::vector<StarFace> stars_;  // the stars of the current base's nodes
-    /// A front face on base edge a_i a_j other than the base: its third node and the part of
-    /// (node - A_i) normal to the edge, for the dihedral angle test of new faces.
-    struct Wing {
-        std::int32_t v;
-        V3 vp;
-        double vpl2;
-    };
-    std::vector<Wing> wings_;
-    /// A front edge (a_i, v) at a base node, for the edge-face angle test of new faces: v and
-    /// the edge vector d = v - A_i with |d|^2 (every edge of the star once, or twice where a
-    /// non-manifold star has it in two faces: the test's outcome is the same).
-    struct EdgeAt {
-        V3 d;
-        double dl2;
-        std::int32_t v;
-    };
-    std::vector<EdgeAt> edges_;
-    /// The candidate search of one base (§3.1.4 steps 3-4).
-    struct Search {
-        bool relaxed;      // closing phase: the paper's quality filters dropped
-        bool small_front;  // relaxed with at most 64 front faces: every face is near
-        double r1;         // Eq. 11 radius for w = 1
-        double min_vol;    // relaxed volume test
-        core::AdtBox base_box;
-        // near_faces_ holds every front face whose box meets `fetched`: those a validity
-        // test of a tet (base, q) with q inside `fetched` needs; with `near_ready` every
-        // front face
-        core::AdtBox fetched;
-        bool near_ready = false;
-        V3 centroid = V3::Zero();  // of the relaxed candidates
-        int ncent = 0;
-    };
-
-    // ---- small helpers --------------------------------------------------------------------
-    static core::AdtBox domain_of(const core::SurfaceNetwork& s, Label r);
-    const double* p(std::int32_t v) const { return &xyz_[3 * static_cast<std::size_t>(v)]; }
-    V3 x(std::int32_t v) const { return V3(p(v)[0], p(v)[1], p(v)[2]); }
-    V3 node_normal(std::int32_t v) const {
-        return V3(normal_[3 * v], normal_[3 * v + 1], normal_[3 * v + 2]);
-    }
-    std::int32_t node_count() const { return static_cast<std::int32_t>(level_.size()); }
-    std::int32_t next_mark();
-    std::string where(std::int32_t v) const;
-    std::int32_t push_node(const V3& q, std::int32_t level);
-    void pop_node();
-
-    // ---- the method, in the paper's order ---------------------------------------------------
-    std::int32_t mesh_levels();
-    void init_front(const core::SurfaceNetwork& surface);
-    // §3.1.3
-    struct LevelSetup;
-    void setup_level();
-    void estimate_spacing(LevelSetup& s);
-    void correct_by_influence(LevelSetup& s);
-    void smooth_heights(const std::vector<std::int32_t>& front_nodes);
-    bool is_visible(std::int32_t j, std::int32_t i);
-    /// h_o of Eq. 4 for the mean area `mean_area` of a node's faces (mm^2).
-    double reference_height(double mean_area) const {
-        return 1.24 * params_.stretching * std::sqrt(mean_area);
-    }
-    // §3.1.4 / §3.1.5
-    bool is_active(std::int32_t v) const { return setup_stamp_[v] == front_no_; }
-    bool is_eligible(std::int32_t f, int stage) const {
-        const Tri& t = front_.face(f).v;
-        const int n = is_active(t[0]) + is_active(t[1]) + is_active(t[2]);
-        return stage == 1 ? n == 3 : n >= 1;
-    }
-    void run_stage(int stage, bool allow_remesh);
-    Base make_base(std::int32_t f, bool active_only);
-    void copy_stars(Base& bk);
-    void base_height(Base& bk, bool active_only) const;
-    void new_point_frame(Base& bk) const;
-    bool try_base(std::int32_t f, bool active_only, bool relaxed);
-    void collect_candidates(const Base& bk, Search& s, double rmin, double r, bool from_faces);
-    void order_candidates(const Base& bk, const Search& s);
-    void ensure_near(Search& s, std::int32_t q);
-    bool try_existing(const Base& bk, Search& s, std::int32_t q);
-    bool try_new(const Base& bk, Search& s, const V3& P);
-    // step 4
-    bool passes_paper_tests(const Base& bk, std::int32_t q) const;
-    bool passes_new_edge_tests(const Base& bk, int i, const V3& P) const;
-    bool passes_new_face_tests(const Base& bk, int i, std::int32_t q, const V3& P) const;
-    bool is_valid_tet(const Base& bk, std::int32_t q, const std::vector<std::int32_t>& near);
-    // step 5, §3.2
-    void add_tet(std::int32_t a, std::int32_t b, std::int32_t c, std::int32_t d);
-    void remove_tet(std::int32_t t);
-    bool remesh_around(std::int32_t f);
-    // closing phase
-    std::int64_t close_cavities();
-    void closing_round(std::int32_t rings);
-    void remove_rings(std::int32_t rings);
-    void fill_relaxed();
-    // the end
-    void diagnose_open_front() const;
-    RegionResult result() const;
-    [[noreturn]] void fail(const std::string& why) const;
-};
-
-// ---- small helpers ------------------------------------------------------------------------
-
-core::AdtBox RegionMesher::domain_of(const core::SurfaceNetwork& s, Label r) {
-    core::AdtBox box;
-    for (std::size_t f = 0; f < s.face_count(); ++f) {
-        if (s.region_in[f] != r && s.region_out[f] != r) continue;
-        for (std::int32_t v : s.faces[f]) box.extend(s.point(v));
-    }
-    if (!box.is_valid()) box = core::AdtBox::of_point(V3::Zero());
-    const double d = (box.hi - box.lo).norm();
-    return box.enlarged(0.05 * d + 1e-9);
-}
-
-inline std::int32_t RegionMesher::next_mark() {
-    if (++mark_value_ == std::numeric_limits<std::int32_t>::max()) {
-        std::fill(mark_.begin(), mark_.end(), 0);
-        mark_value_ = 1;
-    }
-    return mark_value_;
-}
-
-std::string RegionMesher::where(std::int32_t v) const {
-    std::ostringstream s;
-    s.precision(6);
-    s << "(" << p(v)[0] << ", " << p(v)[1] << ", " << p(v)[2] << ") mm";
-    return s.str();
-}
-
-inline std::int32_t RegionMesher::push_node(const V3& q, std::int32_t level) {
-    xyz_.insert(xyz_.end(), {q.x(), q.y(), q.z()});
-    level_.push_back(level);
-    setup_stamp_.push_back(-1);
-    normal_.insert(normal_.end(), {0.0, 0.0, 0.0});
-    h_.push_back(0.0);
-    rs_.push_back(0.0);
-    remesh_count_.push_back(0);
-    tet_head_.push_back(-1);
-    mark_.push_back(0);
-    front_.add_node();
-    validity_.resize(level_.size());
-    return node_count() - 1;
-}
-
-inline void RegionMesher::pop_node() {
-    xyz_.resize(xyz_.size() - 3);
-    level_.pop_back();
-    setup_stamp_.pop_back();
-    normal_.resize(normal_.size() - 3);
-    h_.pop_back();
-    rs_.pop_back();
-    remesh_count_.pop_back();
-    tet_head_.pop_back();
-    mark_.pop_back();
-    front_.pop_node();
-    validity_.resize(level_.size());
-}
+namespace detail {
 
 // ---- the level loop (§3, §3.1) ------------------------------------------------------------
 
@@ -1077,8 +760,7 @@ inline bool RegionMesher::is_valid_tet(const Base& bk, std::int32_t q,
         tet.face_new[i] = existing < 0;
         tet.edge_new[i] = edge_new;
     }
-    const FrontView view{xyz_.data(), reinterpret_cast<const std::byte*>(front_.records()),
-                         sizeof(FrontFace), front_.max_edge()};
+    const FrontView view{xyz_.data(), front_.records(), front_.max_edge()};
     return validity_.is_valid(tet, view, near);
 }
 
@@ -1171,186 +853,7 @@ bool RegionMesher::remesh_around(std::int32_t f) {
     return true;
 }
 
-// ---- closing phase (beyond the paper) ---------------------------------------------------------
-
-/// Closing rounds until the front is empty, at most max_closing_rounds + 1; their number.
-std::int64_t RegionMesher::close_cavities() {
-    std::int64_t closing_rounds = 0;
-    for (std::int32_t round = 0; front_.size() > 0 && round <= params_.max_closing_rounds;
-         ++round) {
-        sink_.check_cancelled();
-        ++closing_rounds;
-        closing_round(round);
-    }
-    return closing_rounds;
-}
-
-/// Round `rings`: enlarges every cavity by `rings` rings of tets and refills it with the
-/// layered front (good elements), then fills what is left with relaxed tests.
-void RegionMesher::closing_round(std::int32_t rings) {
-    if (rings > 0) {
-        remove_rings(rings);
-        ++front_no_;
-        setup_level();
-        run_stage(1, false);
-        run_stage(2, false);
-    }
-    fill_relaxed();
-}
-
-/// Removes `rings` rings of tets around the nodes left on the front.
-void RegionMesher::remove_rings(std::int32_t rings) {
-    std::vector<std::int32_t> nodes;
-    for (std::int32_t f = 0; f < front_.id_bound(); ++f)
-        if (front_.is_alive(f))
-            nodes.insert(nodes.end(), front_.face(f).v.begin(), front_.face(f).v.end());
-    std::vector<std::int32_t> tets;
-    for (std::int32_t ring = 0; ring < rings; ++ring) {
-        std::sort(nodes.begin(), nodes.end());
-        nodes.erase(std::unique(nodes.begin(), nodes.end()), nodes.end());
-        tets.clear();
-        for (std::int32_t v : nodes)
-            for (std::int32_t k = tet_head_[v]; k >= 0; k = tnext_[k])
-                if (talive_[k / 4]) tets.push_back(k / 4);
-        std::sort(tets.begin(), tets.end());
-        tets.erase(std::unique(tets.begin(), tets.end()), tets.end());
-        for (std::int32_t t : tets) nodes.insert(nodes.end(), tv_[t].begin(), tv_[t].end());
-    }
-    for (std::int32_t t : tets) {
-        new_faces_.clear();
-        remove_tet(t);
-    }
-}
-
-/// Relaxed filling: any valid tet, smallest faces first; at most 4 passes, each over the faces
-/// at its start, ending early when a pass adds nothing.
-void RegionMesher::fill_relaxed() {
-    for (int pass = 0; pass < 4 && front_.size() > 0; ++pass) {
-        bool progress = false;
-        std::vector<std::pair<double, std::int32_t>> order;
-        for (std::int32_t f = 0; f < front_.id_bound(); ++f)
-            if (front_.is_alive(f)) order.push_back({front_.face(f).area, f});
-        std::sort(order.begin(), order.end());
-        std::vector<std::int32_t> stamps(front_.id_bound());
-        for (auto [a, f] : order) stamps[f] = front_.face(f).stamp;
-        for (auto [a, f] : order) {
-            (void)a;
-            if (f >= static_cast<std::int32_t>(stamps.size()) || !front_.is_alive(f) ||
-                front_.face(f).stamp != stamps[f])
-                continue;
-            if (try_base(f, false, true)) progress = true;
-        }
-        if (!progress) break;
-    }
-}
-
-// ---- the end --------------------------------------------------------------------------------
-
-/// Hands the front left open to the diagnostics sink as "tetra-region<label>-front": its
-/// triangles (kind 0) and the tets with a node on it (kind 1).
-void RegionMesher::diagnose_open_front() const {
-    if (!sink_.wants_diagnostics()) return;
-    core::Diagnostic d;
-    d.name = "tetra-region" + std::to_string(region_) + "-front";
-    d.what = "tetra: region " + std::to_string(region_) +
-             ": the front cannot be closed; kind 0: front triangle left open (normal into the "
-             "unmeshed part), kind 1: tet with a node on that front";
-    std::vector<std::int32_t> point(static_cast<std::size_t>(node_count()), -1);
-    auto id = [&](std::int32_t v) {
-        if (point[v] < 0) point[v] = d.add_point(p(v)[0], p(v)[1], p(v)[2]);
-        return point[v];
-    };
-    for (std::int32_t f = 0; f < front_.id_bound(); ++f) {
-        if (!front_.is_alive(f)) continue;
-        const Tri& t = front_.face(f).v;
-        d.add_cell({id(t[0]), id(t[1]), id(t[2])}, 0);
-    }
-    for (std::size_t t = 0; t < tv_.size(); ++t) {
-        if (!talive_[t]) continue;
-        const Tet& v = tv_[t];
-        bool at_front = false;
-        for (const std::int32_t w : v) at_front = at_front || front_.first_corner(w) >= 0;
-        if (at_front) d.add_cell({id(v[0]), id(v[1]), id(v[2]), id(v[3])}, 1);
-    }
-    sink_.diagnose(std::move(d));
-}
-
-RegionResult RegionMesher::result() const {
-    RegionResult res;
-    res.region = region_;
-    res.boundary_nodes = boundary_nodes_;
-    res.global_of_local = global_of_local_;
-    res.xyz.assign(xyz_.begin(), xyz_.end());
-    res.level.assign(level_.begin(), level_.end());
-    res.tets.reserve(static_cast<std::size_t>(alive_tets_));
-    for (std::size_t t = 0; t < tv_.size(); ++t)
-        if (talive_[t]) res.tets.push_back(tv_[t]);
-    res.remeshes = remeshes_;
-    for (int i = 0; i < kStatCount; ++i) res.stat[i] = stat_[i];
-    return res;
-}
-
-void RegionMesher::fail(const std::string& why) const {
-    std::int32_t f = 0;
-    while (f < front_.id_bound() && !front_.is_alive(f)) ++f;
-    std::string place = f < front_.id_bound() ? where(front_.face(f).v[0]) : "?";
-    FM_THROW(MeshingError, "tetra: region " + std::to_string(region_) + ": " + why + " near " +
-                               place + ", " + std::to_string(front_.size()) +
-                               " front triangles left");
-}
-
-/// Deterministic merge: surface nodes first, then each region's new nodes in label order.
-core::TetMesh merge_regions(const core::SurfaceNetwork& surface,
-                            const std::vector<RegionResult>& results, core::StageContext& ctx) {
-    const std::size_t nv = surface.vertex_count();
-    core::TetMesh mesh;
-    mesh.xyz = surface.xyz;
-    mesh.level.assign(nv, 0);
-    mesh.faces = surface.faces;
-    mesh.region_in = surface.region_in;
-    mesh.region_out = surface.region_out;
-    mesh.surface_vertices = static_cast<std::int32_t>(nv);
-    std::int64_t remeshes = 0, closing_rounds = 0, closing_tets = 0, levels = 0;
-    std::int64_t stat[kStatCount] = {};
-    for (const RegionResult& res : results) {
-        const std::int32_t nl = static_cast<std::int32_t>(res.level.size());
-        std::vector<std::int32_t> global(nl, -1);
-        for (std::int32_t v = 0; v < res.boundary_nodes; ++v) global[v] = res.global_of_local[v];
-        for (const Tet& t : res.tets) {
-            Tet g;
-            for (int k = 0; k < 4; ++k) {
-                const std::int32_t v = t[k];
-                if (global[v] < 0) {
-                    global[v] = mesh.add_node(
-                        Eigen::Vector3d(res.xyz[3 * v], res.xyz[3 * v + 1], res.xyz[3 * v + 2]));
-                    mesh.level.push_back(res.level[v]);
-                }
-                g[k] = global[v];
-            }
-            mesh.add_tet(g[0], g[1], g[2], g[3], res.region);
-        }
-        remeshes += res.remeshes;
-        closing_rounds += res.closing_rounds;
-        closing_tets += res.closing_tets;
-        levels = std::max<std::int64_t>(levels, res.levels);
-        for (int i = 0; i < kStatCount; ++i) stat[i] += res.stat[i];
-    }
-    for (int i = 0; i < kStatCount; ++i)
-        ctx.count(std::string("tetra.") + kStatNames[i], static_cast<double>(stat[i]));
-    ctx.count("tetra.tets", static_cast<double>(mesh.tet_count()));
-    ctx.count("tetra.nodes", static_cast<double>(mesh.node_count()));
-    ctx.count("tetra.regions", static_cast<double>(results.size()));
-    ctx.count("tetra.remeshings", static_cast<double>(remeshes));
-    ctx.count("tetra.closing_rounds", static_cast<double>(closing_rounds));
-    ctx.count("tetra.closing_tets", static_cast<double>(closing_tets));
-    ctx.count("tetra.max_levels", static_cast<double>(levels));
-    ctx.info("tetra: " + std::to_string(mesh.tet_count()) + " tets, " +
-             std::to_string(mesh.node_count()) + " nodes, " + std::to_string(results.size()) +
-             " regions, " + std::to_string(remeshes) + " local remeshings");
-    return mesh;
-}
-
-}  // namespace
+}  // namespace detail
 
 core::TetMesh tetra(const core::SurfaceNetwork& surface, const TetraParams& params,
                     core::StageContext& ctx) {
@@ -1362,15 +865,15 @@ core::TetMesh tetra(const core::SurfaceNetwork& surface, const TetraParams& para
             if (v < 0 || static_cast<std::size_t>(v) >= nv)
                 FM_THROW(InputError,
                          "tetra: face " + std::to_string(f) + " has a vertex id out of range");
-    const std::vector<Label> labels = core::region_labels(surface);
-    std::vector<RegionResult> results(labels.size());
+    const std::vector<core::Label> labels = core::region_labels(surface);
+    std::vector<detail::RegionResult> results(labels.size());
     std::vector<std::exception_ptr> errors(labels.size());
     std::mutex ctx_mutex;
-    const RegionSink sink(ctx, ctx_mutex);
+    const detail::RegionSink sink(ctx, ctx_mutex);
     std::size_t done = 0;
     tbb::parallel_for(std::size_t(0), labels.size(), [&](std::size_t r) {
         try {
-            RegionMesher mesher(surface, labels[r], params, sink);
+            detail::RegionMesher mesher(surface, labels[r], params, sink);
             results[r] = mesher.run();
         } catch (...) {
             errors[r] = std::current_exception();
@@ -1382,7 +885,7 @@ core::TetMesh tetra(const core::SurfaceNetwork& surface, const TetraParams& para
     });
     for (const auto& e : errors)
         if (e) std::rethrow_exception(e);
-    return merge_regions(surface, results, ctx);
+    return detail::merge_regions(surface, results, ctx);
 }
 
 }  // namespace frontmesh::volume

@@ -11,7 +11,7 @@ namespace frontmesh::volume {
 /// floor(4 log2 len) + kBuckets / 2, clamped, from len^2 = m 2^e (m in [0.5, 1)) without a
 /// logarithm: 4 log2 len = 2 e + 2 log2 m, whose floor is 2 e - 1 for m >= 2^(-1/2) and
 /// 2 e - 2 below. A length in bucket b is below 2^((b + 1 - kBuckets / 2) / 4).
-int Front::bucket_of(double len2) {
+inline int Front::bucket_of(double len2) {
     if (!(len2 > 0.0)) return 0;
     if (!(len2 < std::numeric_limits<double>::infinity())) return kBuckets - 1;
     // m and e as std::frexp gives them, from the bits of a normal len2 (the libm call was
@@ -36,7 +36,7 @@ Front::Front(const core::HugeVector<double>& xyz, const core::AdtBox& domain)
       node_adt_(domain, core::AdtItems::points),
       face_adt_(domain, core::AdtItems::boxes) {}
 
-void Front::count_edge(std::int32_t u, std::int32_t v, int delta) {
+inline void Front::count_edge(std::int32_t u, std::int32_t v, int delta) {
     const int b = bucket_of((x(u) - x(v)).squaredNorm());
     edge_bucket_[b] += delta;
     if (delta > 0) {

@@ -96,7 +96,7 @@ public:
     Eigen::Vector3d normal(std::int32_t f) const {
         return Eigen::Vector3d(faces_[f].n[0], faces_[f].n[1], faces_[f].n[2]);
     }
-    /// The record array itself (FrontFace::v first in each record), for the validity test.
+    /// The record array itself, indexed by face id, for the validity test.
     const FrontFace* records() const { return faces_.data(); }
 
     /// Remembers that face f failed as a base in its current generation.
