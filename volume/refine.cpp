@@ -194,6 +194,7 @@ core::TetMesh refine(const core::TetMesh& mesh, const RefineParams& params, core
     }
     ctx.progress(1.0 / steps, "node removal");
     for (int pass = 1; pass <= params.passes; ++pass) {
+        ctx.check_cancelled();
         if (params.smoothing)
             for (int s = 0; s < params.smoothing_sweeps; ++s) refiner.smooth();
         refiner.flips();
@@ -203,6 +204,7 @@ core::TetMesh refine(const core::TetMesh& mesh, const RefineParams& params, core
         ctx.progress(static_cast<double>(1 + pass) / steps, "smoothing and flips");
     }
     if (params.sliver_pass) {
+        ctx.check_cancelled();
         refiner.slivers();
         figures = measure(topo, refiner);
         record(ctx, "refine.sliver", figures);

@@ -133,6 +133,15 @@ public:
     bool improve_by_flips(std::int32_t t, Objective objective, bool delaunay_test);
 
 private:
+    /// insert_node's cavity `variant` around tet t into cavity_: 0-5 the ring of edge
+    /// `variant` of t (false when that edge lies on a wall), 6 and 7 t with one and two layers
+    /// of neighbours across non-wall faces.
+    bool insertion_cavity(std::int32_t t, int variant);
+    /// Replaces the tets `cavity` by a new node at p joined to every face of `boundary` (faces
+    /// seen from inside), in `region`; the node's level is the highest of the cavity's nodes.
+    void fill_cavity(std::span<const std::int32_t> cavity,
+                     std::span<const std::array<std::int32_t, 3>> boundary,
+                     const Eigen::Vector3d& p, core::Label region);
     /// smooth_node with the closed star of v already in star_.
     bool smooth_star(std::int32_t v);
     /// Replaces tets through the topology and marks the new tets, their neighbours and nodes
