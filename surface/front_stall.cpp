@@ -110,13 +110,9 @@ bool FrontMesher::local_remesh(std::int32_t e) {
     if (near >= params_.max_local_remesh) {
         const std::string why = "remesh: the front cannot be closed near " + where(centre) +
                                 " after " + std::to_string(near) + " local remeshings there";
-        hand_over_stall(
-            centre,
-            std::max(
-                20.0 *
-                    (xyz_[static_cast<std::size_t>(b)] - xyz_[static_cast<std::size_t>(a)]).norm(),
-                8.0),
-            why);
+        const double length =
+            (xyz_[static_cast<std::size_t>(b)] - xyz_[static_cast<std::size_t>(a)]).norm();
+        hand_over_stall(centre, std::max(20.0 * length, 8.0), why);
         throw FrontStall(why, centre, __FILE__, __LINE__, __func__);
     }
     remesh_sites_.insert(static_cast<std::int32_t>(remeshings_), centre);
