@@ -432,7 +432,6 @@ bool mesh_round(int round, Rounds& r, RoundResult& result) {
         ctx.warn("remesh: regions" + regions.rescaled +
                  " changed their volume more than remesh.max_volume_change_percent; meshing them "
                  "again finer");
-        r.retry.note("regions" + regions.rescaled + " changed their volume");
         return false;
     }
     return true;

@@ -108,7 +108,10 @@ RegionChecks check_regions(const core::SurfaceNetwork& bg, const core::SurfaceNe
             }
         }
     }
-    if (!result.rescaled.empty()) retry.update_vertex_scales();
+    if (!result.rescaled.empty()) {
+        retry.update_vertex_scales();
+        retry.note("regions" + result.rescaled + " changed their volume");
+    }
     return result;
 }
 

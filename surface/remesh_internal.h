@@ -103,10 +103,11 @@ public:
     /// volume_scale(v) = min over the faces at v (after on_volume_change).
     void update_vertex_scales();
 
-    /// What made the next round necessary (set by the on_* calls through note()).
-    void note(std::string trigger) { trigger_ = std::move(trigger); }
-    /// One log line for round `round` (0-based): why it runs and the multipliers in force.
-    std::string round_summary(int round) const;
+    /// Records what makes the next round necessary (several triggers of a round are joined).
+    void note(const std::string& trigger);
+    /// One log line for round `round` (0-based): why it runs (the triggers noted since the
+    /// last summary) and the multipliers in force.
+    std::string round_summary(int round);
 
 private:
     void add_shrink_site(const Eigen::Vector3d& centre, double radius_in_h);
@@ -119,7 +120,7 @@ private:
     std::vector<std::uint8_t> rescaled_;             // per patch, since mark_sizes_used()
     std::vector<int> patch_stalls_, patch_crossings_;
     std::vector<std::uint8_t> copy_patch_;
-    std::string trigger_ = "first round";
+    std::string triggers_;  // noted since the last round_summary()
 };
 
 // --- curves and loops (remesh_curves.cpp) --------------------------------------------------

@@ -115,15 +115,22 @@ void RetryPolicy::update_vertex_scales() {
             vertex_scale_[std::size_t(v)] = std::min(vertex_scale_[std::size_t(v)], face_scale_[f]);
 }
 
-std::string RetryPolicy::round_summary(int round) const {
+void RetryPolicy::note(const std::string& trigger) {
+    if (!triggers_.empty()) triggers_.append("; ");
+    triggers_.append(trigger);
+}
+
+std::string RetryPolicy::round_summary(int round) {
     const double min_volume_scale = *std::min_element(face_scale_.begin(), face_scale_.end());
     const auto copied = std::count(copy_patch_.begin(), copy_patch_.end(), 1);
     std::ostringstream s;
-    s << "remesh: round " << round + 1 << " of at most " << kRounds << " (" << trigger_
-      << "): h = size field x shrink (" << shrink_sites_.size()
+    s << "remesh: round " << round + 1 << " of at most " << kRounds << " ("
+      << (triggers_.empty() ? "first round" : triggers_) << "): h = size field x shrink ("
+      << shrink_sites_.size()
       << " sites, x0.5 within r, at least x0.125) x volume scale (smallest x" << min_volume_scale
       << ") [x0.85 per failed attempt of a patch]; " << copied
       << " patch(es) keep their background triangles";
+    triggers_.clear();
     return s.str();
 }
 
