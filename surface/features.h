@@ -1,7 +1,8 @@
 #pragma once
 // Features of the background surface for the remesher (paper §2: "geometrical features are
 // extracted from the background mesh"): junction curves where regions meet, sharp edges by a
-// dihedral threshold, corners, and the patches the curves separate.
+// dihedral threshold, corners, and the patches the curves separate. Implementation:
+// surface/features.cpp, one named function per step of find_features.
 
 #include <array>
 #include <cstdint>

@@ -2,6 +2,9 @@
 // Direct advancing-front triangulation of one surface patch over the discrete background
 // surface (paper §2): new points are placed at the target size over front edges and projected
 // onto the background (closest point through an ADT over background triangles).
+// Implementation: BackgroundPatch in surface/background_patch.cpp; the front in
+// surface/front_triangulate.cpp, front_step.cpp and front_stall.cpp (file map in
+// surface/front_mesher.h).
 
 #include <array>
 #include <cstdint>

@@ -1,6 +1,8 @@
 #pragma once
 // Remesh stage (paper §2, issue 3): SurfaceNetwork (background) -> SurfaceNetwork, isotropic,
 // graded, every vertex on the background, interfaces shared, junction curves kept.
+// Implementation: surface/remesh.cpp (the driver) and remesh_*.cpp; the file map is in
+// surface/remesh_internal.h.
 
 #include <array>
 #include <cstddef>

@@ -1,5 +1,7 @@
 #pragma once
 // Repair stage: SurfaceNetwork -> SurfaceNetwork, watertight, oriented, checked.
+// Implementation: surface/repair.cpp (the driver) and one repair_*.cpp per step; the file map
+// is in surface/repair_internal.h.
 
 #include <cstddef>
 

@@ -2,6 +2,12 @@
 // Target edge length on the background surface (issue 3 item 3; DESIGN-NOTES §2): uniform,
 // curvature-adaptive, thickness/gap-adaptive, per label, graded and clamped. Stored per
 // background vertex, queried by position.
+//
+// The size h from the recipe to the front, in one direction:
+//   remesh.edge_length (0: default_edge_length)  -> size_field_params()  (surface/remesh.cpp)
+//   -> build_size_field(): h per background vertex (here)
+//   -> RetryPolicy::size(): the rounds' multipliers (surface/remesh_retry.cpp)
+//   -> the Eq. 8 analogue of the front's point placement (surface/front_step.cpp).
 
 #include <cstdint>
 #include <map>

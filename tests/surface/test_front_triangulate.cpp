@@ -395,6 +395,43 @@ TEST_CASE("front triangulation over marching-cubes backgrounds of a sphere and a
 
 // A strip folded into a hairpin: two parallel sheets `gap` apart (the inside faces of the
 // fold face each other, like the walls of a sulcus), joined by a half cylinder at x = 10.
+TEST_CASE("a stalled front is handed to the diagnostics sink", "[front]") {
+    const auto plane = grid_surface(20, 20, false, false, [](double u, double v) {
+        return Eigen::Vector3d(10 * u, 10 * v, 0);
+    });
+    const BackgroundPatch patch(plane, all_faces(plane), false);
+    const double h = 1.0;
+    // Clockwise: the patch lies to the right of every loop edge, so no triangle fits.
+    const auto loop = polygon_loop({{0, 0, 0}, {0, 10, 0}, {10, 10, 0}, {10, 0, 0}}, h);
+    surface::FrontParams params;
+    params.attempts = 1;
+    std::vector<core::Diagnostic> received;
+    core::StageContext ctx({}, {}, [&](core::Diagnostic d) { received.push_back(std::move(d)); });
+    CHECK_THROWS_AS(surface::triangulate_patch(patch, {loop}, uniform(h), params, ctx),
+                    surface::FrontStall);
+    REQUIRE(received.size() == 1);
+    const core::Diagnostic& d = received.front();
+    CHECK(!d.name.empty());
+    CHECK(d.name.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ"
+                                   "0123456789-_.") == std::string::npos);
+    CHECK(d.what.find("kind") != std::string::npos);
+    REQUIRE(d.cells.size() == d.kind.size());
+    std::size_t front_edges = 0, background_faces = 0;
+    for (std::size_t c = 0; c < d.cells.size(); ++c) {
+        CHECK(d.cells[c].size() == (d.kind[c] == 1 ? 2u : 3u));
+        for (const std::int32_t id : d.cells[c]) CHECK(std::size_t(id) < d.xyz.size() / 3);
+        front_edges += d.kind[c] == 1;
+        background_faces += d.kind[c] == 2;
+    }
+    CHECK(front_edges > 0);
+    CHECK(background_faces > 0);
+
+    // Nobody receives diagnostics: the same stall, nothing built.
+    core::StageContext quiet;
+    CHECK_THROWS_AS(surface::triangulate_patch(patch, {loop}, uniform(h), params, quiet),
+                    surface::FrontStall);
+}
+
 TEST_CASE("front triangulation does not connect the two sheets of a thin gap", "[front]") {
     const double gap = 0.8, rr = gap / 2, width = 6.0, flat = 10.0;
     const double total = 2 * flat + M_PI * rr;

@@ -14,6 +14,8 @@
 #include "surface/features.h"
 #include "surface/front_triangulate.h"
 #include "surface/remesh.h"
+#include "surface/remesh_internal.h"
+#include "surface/size_field.h"
 #include "surface/repair.h"
 #include "tests/fixtures/phantoms.h"
 
@@ -177,4 +179,62 @@ TEST_CASE("remesh is deterministic and validates its parameters", "[remesh]") {
     params.gradation = 1.3;
     params.feature_angle_deg = 200;
     CHECK_THROWS_AS(surface::remesh(bg, params, c1), core::InputError);
+}
+
+TEST_CASE("the retry policy owns every size multiplier of the rounds", "[remesh]") {
+    // Two triangles of one region's (open) sheet are enough for the policy's arithmetic.
+    core::SurfaceNetwork bg;
+    for (const Eigen::Vector3d& p : {Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(40, 0, 0),
+                                     Eigen::Vector3d(40, 40, 0), Eigen::Vector3d(0, 40, 0)})
+        bg.add_vertex(p);
+    bg.add_face(0, 1, 2, 1, 0);
+    bg.add_face(0, 2, 3, 1, 0);
+    const surface::SizeField field(bg, std::vector<double>(4, 2.0));
+    surface::Features features;
+    surface::Patch patch;
+    patch.region_in = 1;
+    patch.faces = {0, 1};
+    features.patches.push_back(patch);
+    surface::remesh_detail::RetryPolicy retry(bg, field, 1);
+    core::AdtBox whole = core::AdtBox::of_point(Eigen::Vector3d(0, 0, 0));
+    whole.extend(Eigen::Vector3d(40, 40, 0));
+
+    const Eigen::Vector3d far(30, 30, 0);
+    CHECK(retry.size(far, 0) == Approx(2.0));
+    CHECK(retry.vertex_size(2) == 2.0);
+    CHECK(!retry.has_new_sizes(0, whole));
+
+    // A first stall: a shrink site of radius 4 h = 8 mm: 1/2 within it, 1 beyond 16 mm.
+    const Eigen::Vector3d place(10, 10, 0);
+    retry.on_stall(0, place);
+    CHECK(!retry.copy(0));
+    CHECK(retry.shrink(place) == 0.5);
+    CHECK(retry.shrink(place + Eigen::Vector3d(12, 0, 0)) == Approx(0.75));
+    CHECK(retry.shrink(place + Eigen::Vector3d(20, 0, 0)) == 1.0);
+    CHECK(retry.size(place, 0) == 1.0);
+    CHECK(retry.has_new_sizes(0, whole));
+    retry.mark_sizes_used();
+    CHECK(!retry.has_new_sizes(0, whole));
+    // Sites multiply, never below 1/8.
+    retry.on_open_edges({place, place, place, place});
+    CHECK(retry.shrink(place) == 0.125);
+    // A second stall of the same patch: it keeps its background triangles, no new site.
+    retry.mark_sizes_used();
+    retry.on_stall(0, far);
+    CHECK(retry.copy(0));
+    CHECK(!retry.has_new_sizes(0, whole));
+
+    // A region that lost 20% of its volume against a 10% limit: x 0.9 sqrt(1/2); a change
+    // of 80% would ask for less than the floor of 0.5.
+    const double factor = 0.9 * std::sqrt(0.5);
+    retry.on_volume_change(features, 1, -20.0, 10.0);
+    CHECK(retry.has_new_sizes(0, whole));
+    CHECK(retry.size(far, 1) == Approx(2.0 * factor));
+    CHECK(retry.vertex_size(2) == 2.0);  // vertices follow at update_vertex_scales()
+    retry.update_vertex_scales();
+    CHECK(retry.vertex_size(2) == Approx(2.0 * factor));
+    retry.on_volume_change(features, 1, 80.0, 10.0);
+    CHECK(retry.size(far, 1) == Approx(2.0 * factor * 0.5));
+    CHECK(retry.size(far, -1) == 2.0);  // no face: no volume scale
+    CHECK(retry.round_summary(1).find("round 2") != std::string::npos);
 }

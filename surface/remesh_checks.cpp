@@ -1,0 +1,191 @@
+// Checks of one remesh round's result (paper §2: the surface must stay water-tight, and "the
+// surface of interest is re-triangulated ... to the desired degree"): every region a closed,
+// oriented 2-manifold, its enclosed volume kept, no faces crossing; and the figures of the
+// final result.
+
+#include <algorithm>
+#include <cmath>
+#include <optional>
+#include <string>
+
+#include "pipeline/core/error.h"
+#include "pipeline/core/quality.h"
+#include "pipeline/core/self_intersection.h"
+#include "surface/remesh_internal.h"
+
+namespace frontmesh::surface::remesh_detail {
+
+namespace {
+
+// Edges of `region`'s boundary in `s` with other than two of its faces (open or
+// non-manifold), in edge order.
+std::vector<std::int32_t> edges_not_two_faces(const core::SurfaceNetwork& s, const EdgeTable& et,
+                                              core::Label region) {
+    std::vector<std::int32_t> bad;
+    for (std::size_t e = 0; e < et.edge_count(); ++e) {
+        int uses = 0;
+        for (auto k = et.face_offsets[e]; k < et.face_offsets[e + 1]; ++k) {
+            const auto f = std::size_t(et.edge_faces[std::size_t(k)]);
+            uses += s.region_in[f] == region || s.region_out[f] == region;
+        }
+        if (uses != 0 && uses != 2) bad.push_back(static_cast<std::int32_t>(e));
+    }
+    return bad;
+}
+
+Eigen::Vector3d edge_midpoint(const core::SurfaceNetwork& s, const EdgeTable& et, std::int32_t e) {
+    const auto& v = et.vertices[std::size_t(e)];
+    return 0.5 * (s.point(v[0]) + s.point(v[1]));
+}
+
+// The place of the first edge of `bad` for a message: its midpoint and the patches of its
+// faces that bound `region`.
+std::string bad_edge_place(const core::SurfaceNetwork& out, const EdgeTable& et,
+                           const std::vector<std::int32_t>& face_patch, core::Label region,
+                           const std::vector<std::int32_t>& bad) {
+    if (bad.empty()) return {};
+    const auto e = std::size_t(bad.front());
+    std::string patches;
+    for (auto k = et.face_offsets[e]; k < et.face_offsets[e + 1]; ++k) {
+        const auto f = std::size_t(et.edge_faces[std::size_t(k)]);
+        if (out.region_in[f] == region || out.region_out[f] == region)
+            patches += " " + std::to_string(face_patch[f]);
+    }
+    return " (e.g. the edge at " + point_text(edge_midpoint(out, et, bad.front())) +
+           ", faces of patches" + patches + ")";
+}
+
+}  // namespace
+
+RegionChecks check_regions(const core::SurfaceNetwork& bg, const core::SurfaceNetwork& out,
+                           const std::vector<std::int32_t>& face_patch, const Features& features,
+                           const RemeshParams& params, int round, RetryPolicy& retry,
+                           core::StageContext& ctx) {
+    const bool last_round = round + 1 >= RetryPolicy::kRounds;
+    RegionChecks result;
+    std::optional<EdgeTable> out_edges;  // built only when a region fails its check
+    const auto et_of_out = [&]() -> const EdgeTable& {
+        if (!out_edges) out_edges = edge_table(out);
+        return *out_edges;
+    };
+    for (const auto& c : core::check_region_boundaries(out)) {
+        if (!c.is_closed() || !c.is_oriented() || c.nonmanifold_edges > 0) {
+            const std::vector<std::int32_t> bad = edges_not_two_faces(out, et_of_out(), c.region);
+            if (!last_round) {
+                // Two patches joined the same two curve points by an inner edge (a short
+                // curve between sharp corners): meshed again with finer curves there.
+                std::vector<Eigen::Vector3d> midpoints;
+                for (const std::int32_t e : bad)
+                    midpoints.push_back(edge_midpoint(out, et_of_out(), e));
+                retry.on_open_edges(midpoints);
+                ctx.warn("remesh: region " + std::to_string(c.region) +
+                         " is not a closed 2-manifold after the front; meshing again with half the "
+                         "size there");
+                retry.note("region " + std::to_string(c.region) + " was not a closed 2-manifold");
+                result.again = true;
+                break;
+            }
+            FM_THROW(GeometryError,
+                     "remesh: region " + std::to_string(c.region) + " has " +
+                         std::to_string(c.open_edges) + " open, " +
+                         std::to_string(c.misoriented_edges) + " misoriented, " +
+                         std::to_string(c.nonmanifold_edges) +
+                         " non-manifold edges after remeshing" +
+                         bad_edge_place(out, et_of_out(), face_patch, c.region, bad));
+        }
+        const double before = core::enclosed_volume(bg, c.region);
+        const double change = before != 0.0 ? 100.0 * (c.volume - before) / before : 0.0;
+        ctx.count("remesh.volume_change_percent.region_" + std::to_string(c.region), change);
+        const double limit = params.max_volume_change_percent;
+        if (limit > 0.0 && std::abs(change) > limit) {
+            if (!last_round) {
+                retry.on_volume_change(features, c.region, change, limit);
+                result.rescaled.append(" ").append(std::to_string(c.region)).append(" (");
+                result.rescaled.append(std::to_string(change)).append(" %)");
+            } else {
+                ctx.warn("remesh: region " + std::to_string(c.region) + " changed its volume by " +
+                         std::to_string(change) + " %, more than remesh.max_volume_change_percent");
+            }
+        }
+    }
+    if (!result.rescaled.empty()) {
+        retry.update_vertex_scales();
+        retry.note("regions" + result.rescaled + " changed their volume");
+    }
+    return result;
+}
+
+bool mend_self_intersections(core::SurfaceNetwork& out, const std::vector<double>& front_xyz,
+                             const std::vector<std::int32_t>& face_patch, int round,
+                             RetryPolicy& retry, core::StageContext& ctx) {
+    // A local fix: vertices of intersecting faces go back to where the front put them
+    // (smoothing moved them); a few passes, then the first remaining pair is an error.
+    auto pairs = core::self_intersections(out, 1000);
+    ctx.count("remesh.self_intersections_after_smoothing", double(pairs.size()));
+    for (int pass = 0; pass < 3 && !pairs.empty(); ++pass) {
+        for (const auto& [f, g] : pairs)
+            for (const std::int32_t face : {f, g})
+                for (const auto v : out.faces[std::size_t(face)])
+                    for (int k = 0; k < 3; ++k)
+                        out.xyz[3 * std::size_t(v) + std::size_t(k)] =
+                            front_xyz[3 * std::size_t(v) + std::size_t(k)];
+        pairs = core::self_intersections(out, 1000);
+    }
+    ctx.count("remesh.self_intersections", double(pairs.size()));
+    if (pairs.empty()) return false;
+    if (round + 1 < RetryPolicy::kRounds) {
+        // Meshed again with half the size around each crossing (two patches meeting at a
+        // sharp angle, or a gap narrower than the smallest size): the finer the triangles,
+        // the closer they follow the background, which does not intersect. A patch whose
+        // faces still cross after two rounds of finer sizes (two sheets meeting in a cusp
+        // along a curve) keeps its background triangles instead.
+        retry.on_crossings(pairs, out, face_patch);
+        ctx.warn(
+            "remesh: " + std::to_string(pairs.size()) +
+            " pairs of faces intersect after smoothing; meshing again with half the size there");
+        retry.note(std::to_string(pairs.size()) + " pairs of faces intersected");
+        return true;
+    }
+    const auto& t = out.faces[std::size_t(pairs[0].first)];
+    const Eigen::Vector3d c = (out.point(t[0]) + out.point(t[1]) + out.point(t[2])) / 3.0;
+    FM_THROW(GeometryError,
+             "remesh: faces " + std::to_string(pairs[0].first) + " and " +
+                 std::to_string(pairs[0].second) + " intersect near " + point_text(c) +
+                 " (region " + std::to_string(out.region_in[std::size_t(pairs[0].first)]) +
+                 ", patches " + std::to_string(face_patch[std::size_t(pairs[0].first)]) + " and " +
+                 std::to_string(face_patch[std::size_t(pairs[0].second)]) +
+                 "); try a smaller remesh.edge_length there");
+}
+
+RemeshResult finished_result(const SizeField& size, core::SurfaceNetwork out,
+                             const std::vector<std::int32_t>& vertex_face, std::size_t curve_points,
+                             core::StageContext& ctx) {
+    RemeshResult result;
+    result.target_size.resize(out.vertex_count());
+    for (std::size_t v = 0; v < out.vertex_count(); ++v) {
+        // Curve points may have slid off their face hint: use the nearest background vertex.
+        const std::int32_t face = v < curve_points ? -1 : vertex_face[v];
+        result.target_size[v] = size.at(out.point(static_cast<std::int32_t>(v)), face);
+    }
+    // Region wedges at junction edges (issue 5): under 12 degrees, no tetrahedron of the
+    // region on that edge can reach 12 (the smoothing's wedge pass raises them; reported).
+    ctx.count("remesh.region_wedges_below_12_deg", double(thin_region_wedges(out, 12.0).size()));
+    // Spike tips (issue 5): a thin three-face cone whose only tetrahedron there is fixed by the
+    // surface; those under 10 degrees stay under 10 after refine (the tip pass raises them).
+    {
+        std::size_t below = 0;
+        for (const ForcedTet& tip : forced_tets(out, 20.0)) below += tip.min_dihedral_deg < 10.0;
+        ctx.count("remesh.forced_tets_below_10_deg", double(below));
+    }
+    const SurfaceQuality q = surface_quality(out);
+    ctx.count("remesh.vertices", double(out.vertex_count()));
+    ctx.count("remesh.faces", double(out.face_count()));
+    ctx.count("remesh.min_angle_deg", q.min_angle_deg);
+    ctx.count("remesh.mean_eta", q.mean_eta);
+    ctx.count("remesh.fraction_min_angle_ge_30", q.fraction_at_least_30_deg);
+    ctx.progress(1.0, "done");
+    result.surface = std::move(out);
+    return result;
+}
+
+}  // namespace frontmesh::surface::remesh_detail

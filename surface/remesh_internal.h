@@ -1,0 +1,195 @@
+#pragma once
+// Internals of the remesh stage shared by its source files (issue 19: the paper's steps as
+// named functions, one concern per file):
+//   remesh.cpp           the stage: validate, the size-field parameters from the recipe, the
+//                        driver over the steps below and one round of them
+//   remesh_curves.cpp    curves discretised by the size field (§2 "node distribution on the
+//                        features"), patch boundary loops, a patch copied from the background
+//   remesh_retry.cpp     RetryPolicy: every size multiplier the rounds apply, in one place
+//   remesh_checks.cpp    checks of a round's result (closed 2-manifold regions, volume change,
+//                        self-intersections) and the figures of the final result
+//   remesh_measures.cpp  hausdorff_distance, surface_quality, edge_length_fraction
+// The size field itself (what h is before any retry) is surface/size_field.*; the front that
+// triangulates one patch is surface/front_triangulate.* and the smoothing after it is
+// surface/surface_smoothing.*.
+
+#include <cstddef>
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "pipeline/core/adt.h"
+#include "pipeline/core/stage_context.h"
+#include "pipeline/core/surface_network.h"
+#include "surface/features.h"
+#include "surface/front_triangulate.h"
+#include "surface/remesh.h"
+#include "surface/size_field.h"
+#include "surface/surface_smoothing.h"
+
+namespace frontmesh::surface::remesh_detail {
+
+/// "(x, y, z) mm" for messages.
+std::string point_text(const Eigen::Vector3d& p);
+
+// --- retry policy (remesh_retry.cpp) -------------------------------------------------------
+
+/// What the next round does differently, and why: every multiplier applied to the size field
+/// across rounds, and the patches that fall back to their background triangles. The target
+/// size that reaches the front's point placement (the Eq. 8 analogue in front_step.cpp) is
+///
+///     h(x, f) = field(x, f) * shrink(x) * volume_scale(f)        (size(); patches)
+///     h(v)    = field(v)    * shrink(x_v) * volume_scale(v)      (vertex_size(); curves)
+///
+/// - shrink(x): the product over shrink sites (c, r) of 1/2 within r of c, rising linearly
+///   to 1 at 2r, never below 1/8. Sites are added where a patch's front stalled (r = 4 h),
+///   where a region was not a closed 2-manifold (r = 2 h at the edge) and where faces
+///   crossed after smoothing (r = 2 h at each face), h = field at the place.
+/// - volume_scale(f): per background face, multiplied by clamp(0.9 sqrt(limit / change),
+///   0.5, 0.9) on the patches of a region whose enclosed volume changed by more than
+///   remesh.max_volume_change_percent (chords lose volume as h^2); volume_scale(v) is the
+///   smallest scale of the faces at v, updated when a region is refined.
+/// - within one round, triangulate_patch scales a patch by 0.85 per failed attempt
+///   (FrontParams::attempts) on top.
+/// A patch whose front stalls twice, or whose faces cross in three rounds, keeps its
+/// background triangles from then on (copy()).
+class RetryPolicy {
+public:
+    /// Rounds at most: the last one reports what still fails instead of retrying.
+    static constexpr int kRounds = 10;
+
+    RetryPolicy(const core::SurfaceNetwork& background, const SizeField& field,
+                std::size_t patches);
+
+    /// Target size (mm) at `x` on background face `face` (< 0: no face), every multiplier
+    /// applied: the h the front places points by.
+    double size(const Eigen::Vector3d& x, std::int32_t face) const;
+    /// Target size (mm) at background vertex v, every multiplier applied (curve points).
+    double vertex_size(std::int32_t v) const;
+    /// Product of the shrink sites' factors at x, in [1/8, 1].
+    double shrink(const Eigen::Vector3d& x) const;
+    /// size() as the front's SizeFunction (refers to this policy).
+    SizeFunction size_function() const;
+
+    /// Patch p keeps its background triangles instead of a front.
+    bool copy(std::size_t p) const { return copy_patch_[p] != 0; }
+    /// Whether the sizes over patch p (bounding box `box`) may differ from those it was last
+    /// meshed with: its volume scale changed, or a shrink site added since reaches the box.
+    bool has_new_sizes(std::size_t p, const core::AdtBox& box) const;
+    /// The sizes of this round are in use: has_new_sizes() compares with them from now on.
+    void mark_sizes_used();
+
+    /// The front of patch p stalled at `place`: a shrink site there, or, at its second stall,
+    /// the patch keeps its background triangles.
+    void on_stall(std::size_t p, const Eigen::Vector3d& place);
+    /// Edges of a region that is not a closed 2-manifold (two patches joined the same two
+    /// curve points by an inner edge): a shrink site at each midpoint.
+    void on_open_edges(const std::vector<Eigen::Vector3d>& midpoints);
+    /// Faces f, g of each pair intersect after smoothing (`face_patch` of the output):
+    /// patches crossed in a third round keep their background triangles, the other faces
+    /// get a shrink site at their centroid.
+    void on_crossings(const std::vector<std::pair<std::int32_t, std::int32_t>>& pairs,
+                      const core::SurfaceNetwork& out, const std::vector<std::int32_t>& face_patch);
+    /// The region's enclosed volume changed by `change_percent` (> `limit_percent`): the
+    /// volume scale of its patches' faces drops by clamp(0.9 sqrt(limit / |change|), 0.5,
+    /// 0.9). The vertex scales follow at update_vertex_scales().
+    void on_volume_change(const Features& features, core::Label region, double change_percent,
+                          double limit_percent);
+    /// volume_scale(v) = min over the faces at v (after on_volume_change).
+    void update_vertex_scales();
+
+    /// Records what makes the next round necessary (several triggers of a round are joined).
+    void note(const std::string& trigger);
+    /// One log line for round `round` (0-based): why it runs (the triggers noted since the
+    /// last summary) and the multipliers in force.
+    std::string round_summary(int round);
+
+private:
+    void add_shrink_site(const Eigen::Vector3d& centre, double radius_in_h);
+
+    const core::SurfaceNetwork& background_;
+    const SizeField& field_;
+    std::vector<std::pair<Eigen::Vector3d, double>> shrink_sites_;  // centre, radius (mm)
+    std::size_t sites_used_ = 0;  // sites in force when the patches were last meshed
+    std::vector<double> face_scale_, vertex_scale_;  // volume scales
+    std::vector<std::uint8_t> rescaled_;             // per patch, since mark_sizes_used()
+    std::vector<int> patch_stalls_, patch_crossings_;
+    std::vector<std::uint8_t> copy_patch_;
+    std::string triggers_;  // noted since the last round_summary()
+};
+
+// --- curves and loops (remesh_curves.cpp) --------------------------------------------------
+
+/// One feature curve cut into segments whose lengths follow the size field (§2: "specifying
+/// node distribution on the features"): arc length integrated with density 1/h.
+struct DiscreteCurve {
+    std::vector<std::int32_t> ids;        ///< output vertex ids along the curve
+    std::vector<Eigen::Vector3d> points;  ///< their positions
+    std::vector<double> s;                ///< arc length on the background polyline, mm
+    std::vector<std::int32_t> faces;      ///< a background face at each point
+    std::vector<std::int32_t> bg_vertex;  ///< the background vertex at each point, or -1
+};
+
+/// Output vertices of the curves, shared by every patch they bound: the corners first, then
+/// each curve's other points (a curve of a copied patch at full background resolution).
+/// Appends them to `out` and their background face hints (-1 at corners) to `vertex_face`.
+std::vector<DiscreteCurve> place_curve_points(const core::SurfaceNetwork& bg,
+                                              const Features& features, const RetryPolicy& retry,
+                                              core::SurfaceNetwork& out,
+                                              std::vector<std::int32_t>& vertex_face);
+
+/// Boundary loops of every patch from the shared curve points.
+struct PatchLoops {
+    std::vector<std::vector<std::int32_t>> ids;  ///< per patch: output ids, loops in order
+    std::vector<std::vector<std::int32_t>> bg;   ///< per patch: background vertex or -1
+    std::vector<std::vector<PatchLoop>> loops;   ///< per patch: the loops' points
+};
+PatchLoops patch_loops(const Features& features, const std::vector<DiscreteCurve>& curves,
+                       const core::SurfaceNetwork& out);
+
+/// Patches whose loops pass a point twice (a patch touching itself at a corner): legal, but
+/// the hardest case for the front.
+std::size_t patches_with_repeated_loop_points(const PatchLoops& loops);
+
+/// The last resort for a patch whose front stalls again and again: its own background
+/// triangles, its boundary at full resolution (`loop_bg`: the background vertex of each loop
+/// point, in loop order).
+PatchMesh copy_background_patch(const core::SurfaceNetwork& bg, const Patch& patch,
+                                const std::vector<std::int32_t>& loop_bg);
+
+// --- checks (remesh_checks.cpp) ------------------------------------------------------------
+
+/// Outcome of the region checks of a round.
+struct RegionChecks {
+    bool again = false;    ///< a region is not a closed 2-manifold: mesh again finer there
+    std::string rescaled;  ///< regions refined for their volume change: " R (x %)" each
+};
+
+/// Every region of `out` must be a closed, oriented 2-manifold (else shrink sites and again,
+/// or in the last round GeometryError naming the place) and keep its enclosed volume within
+/// remesh.max_volume_change_percent (else its patches are refined, or in the last round a
+/// warning). Counters `remesh.volume_change_percent.region_*` go to ctx.
+RegionChecks check_regions(const core::SurfaceNetwork& bg, const core::SurfaceNetwork& out,
+                           const std::vector<std::int32_t>& face_patch, const Features& features,
+                           const RemeshParams& params, int round, RetryPolicy& retry,
+                           core::StageContext& ctx);
+
+/// Self-intersections after smoothing: vertices of crossing faces go back to where the front
+/// put them (`front_xyz`) for up to three passes; faces still crossing make shrink sites and
+/// return true (mesh again), or in the last round throw GeometryError naming the faces.
+bool mend_self_intersections(core::SurfaceNetwork& out, const std::vector<double>& front_xyz,
+                             const std::vector<std::int32_t>& face_patch, int round,
+                             RetryPolicy& retry, core::StageContext& ctx);
+
+/// The result: the surface, the size field's target size per vertex (curve points by their
+/// nearest background vertex), and the counters of its quality, wedges and forced tets.
+RemeshResult finished_result(const SizeField& size, core::SurfaceNetwork out,
+                             const std::vector<std::int32_t>& vertex_face, std::size_t curve_points,
+                             core::StageContext& ctx);
+
+}  // namespace frontmesh::surface::remesh_detail
