@@ -22,6 +22,7 @@
 #include "io/label_table.h"
 #include "pipeline/core/error.h"
 #include "pipeline/core/quality.h"
+#include "tests/fixtures/skip.h"
 
 using namespace frontmesh;
 namespace fs = std::filesystem;
@@ -273,8 +274,7 @@ TEST_CASE("readers reject bad files naming file and line", "[io][export]") {
 
 TEST_CASE("gmsh reads the MSH 4.1, MSH 2.2 and MEDIT exports", "[io][export][gmsh]") {
     if (!have("gmsh")) {
-        WARN("gmsh not installed (scripts/install-deps.sh installs it): skipped");
-        return;
+        FM_SKIP("gmsh not installed (scripts/install-deps.sh installs it)");
     }
     const core::TetMesh mesh = three_region_cube();
     const io::LabelTable names = names_for_cube();
@@ -358,8 +358,7 @@ TEST_CASE("gmsh reads the MSH 4.1, MSH 2.2 and MEDIT exports", "[io][export][gms
 
 TEST_CASE("meshio reads the msh, mesh, inp and vtu exports", "[io][export][meshio]") {
     if (!have_meshio()) {
-        WARN("python3-meshio not installed (scripts/install-deps.sh installs it): skipped");
-        return;
+        FM_SKIP("python3-meshio not installed (scripts/install-deps.sh installs it)");
     }
     const core::TetMesh mesh = three_region_cube();
     const io::LabelTable names = names_for_cube();
@@ -396,8 +395,7 @@ TEST_CASE("meshio reads the msh, mesh, inp and vtu exports", "[io][export][meshi
 
 TEST_CASE("FEBio export: parts, domains, placeholder materials and surfaces", "[io][export][febio]") {
     if (run("/usr/bin/python3 -c 'import xml.etree.ElementTree'").exit_code != 0) {
-        WARN("python3 not installed: skipped");
-        return;
+        FM_SKIP("python3 not installed");
     }
     const core::TetMesh mesh = three_region_cube();
     const io::LabelTable names = names_for_cube();

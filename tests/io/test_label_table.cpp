@@ -9,6 +9,7 @@
 #include "tests/fixtures/phantoms.h"
 #include "io/label_table.h"
 #include "pipeline/core/error.h"
+#include "tests/fixtures/skip.h"
 
 using namespace frontmesh;
 
@@ -97,8 +98,7 @@ TEST_CASE("sanitized names are identifiers and unique", "[io][labels]") {
 TEST_CASE("the mricron atlas tables", "[io][labels][e2e]") {
     const std::string aal = "/usr/share/mricron/templates/aal.nii.gz";
     if (!std::filesystem::exists(aal)) {
-        WARN("mricron-data not installed: skipped");
-        return;
+        FM_SKIP("mricron-data not installed");
     }
     const std::string txt = io::label_table_beside(aal);
     CHECK(txt == "/usr/share/mricron/templates/aal.nii.txt");
