@@ -5,6 +5,7 @@
 
 #include "pipeline/core/label_image.h"
 #include "pipeline/core/stage_context.h"
+#include "pipeline/core/stage_params.h"
 #include "pipeline/core/surface_network.h"
 
 namespace frontmesh::surface {
@@ -33,9 +34,24 @@ struct ExtractParams {
     /// with the outside between them, touching only along a voxel edge or at a corner are
     /// joined there, else one voxel is given up). Counted.
     bool manifold_cleanup = true;
+    /// Radius (voxels) of the closing of the labelled object before anything else: background
+    /// gaps, slits and holes narrower than 2 r + 1 voxels are filled with the nearest label
+    /// (one-voxel sulci whose sharp ends the remesher cannot follow). 0 = off. Counted
+    /// (`extract.closing_filled_voxels`).
+    int closing_voxels = 0;
+    /// Radius (voxels) of the opening of the object after the closing: sheets and spikes
+    /// thinner than 2 r + 1 voxels become background. 0 = off. Counted
+    /// (`extract.opening_removed_voxels`).
+    int opening_voxels = 0;
 };
 
-/// Throws InputError naming the key when a value is out of range.
+/// Every `extract.*` recipe key: the member it sets, default, range, unit and a one-line doc
+/// (surface/extract_params.cpp). The one declaration validate(), the recipe reader and `frontmesh keys` read;
+/// the member defaults above equal its defaults (tests/pipeline/test_recipe.cpp).
+const core::ParamTable<ExtractParams>& extract_keys();
+
+/// Throws InputError "extract.KEY: must be in RANGE, got VALUE" for a member outside its
+/// declared range.
 void validate(const ExtractParams& params);
 
 /// Contours the chosen labels. With several labels the result is one network: each

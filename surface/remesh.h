@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "pipeline/core/stage_context.h"
+#include "pipeline/core/stage_params.h"
 #include "pipeline/core/surface_network.h"
 
 namespace frontmesh::surface {
@@ -35,7 +36,13 @@ struct RemeshParams {
     double max_volume_change_percent = 0.0;
 };
 
-/// Throws InputError naming the key (`remesh.*`) when a value is out of range.
+/// Every `remesh.*` recipe key: the member it sets, default, range, unit and a one-line doc
+/// (surface/remesh_params.cpp). The one declaration validate(), the recipe reader and `frontmesh keys` read;
+/// the member defaults above equal its defaults (tests/pipeline/test_recipe.cpp).
+const core::ParamTable<RemeshParams>& remesh_keys();
+
+/// Throws InputError "remesh.KEY: must be in RANGE, got VALUE" for a member outside its
+/// declared range (and for the checks between keys).
 void validate(const RemeshParams& params);
 
 struct RemeshResult {

@@ -40,9 +40,6 @@ using core::Label;
 using core::SurfaceNetwork;
 using Tri = std::array<std::int32_t, 3>;
 
-/// Largest hole `max_hole_edges` may allow: filling is cubic in the hole size.
-constexpr std::size_t k_max_hole_edges_limit = 2000;
-
 // Codes of Topology::nbr besides a neighbour side id (>= 0).
 constexpr std::int32_t k_open = -1;         // the only face of its region on the edge
 constexpr std::int32_t k_nonmanifold = -2;  // three or more faces of the region on the edge
@@ -1415,20 +1412,6 @@ void verify(const SurfaceNetwork& net, const RepairParams& params, core::StageCo
 }
 
 }  // namespace
-
-void validate(const RepairParams& params) {
-    auto non_negative = [](double value, const char* key) {
-        if (!std::isfinite(value) || value < 0.0)
-            FM_THROW(InputError, std::string("repair.") + key + " = " + format_number(value) +
-                                     ": must be a finite number >= 0");
-    };
-    non_negative(params.merge_tolerance_mm, "merge_tolerance_mm");
-    non_negative(params.min_component_volume_mm3, "min_component_volume_mm3");
-    if (params.max_hole_edges > k_max_hole_edges_limit)
-        FM_THROW(InputError, "repair.max_hole_edges = " + std::to_string(params.max_hole_edges) +
-                                 ": at most " + std::to_string(k_max_hole_edges_limit) +
-                                 " (filling is cubic in the hole size)");
-}
 
 core::SurfaceNetwork repair(const core::SurfaceNetwork& input, const RepairParams& params,
                             core::StageContext& ctx) {

@@ -4,6 +4,7 @@
 #include <cstddef>
 
 #include "pipeline/core/stage_context.h"
+#include "pipeline/core/stage_params.h"
 #include "pipeline/core/surface_network.h"
 
 namespace frontmesh::surface {
@@ -19,7 +20,13 @@ struct RepairParams {
     bool fail_on_self_intersections = true;  ///< false: warn and go on
 };
 
-/// Throws InputError naming the key (`repair.*`) when a value is out of range.
+/// Every `repair.*` recipe key: the member it sets, default, range, unit and a one-line doc
+/// (surface/repair_params.cpp). The one declaration validate(), the recipe reader and `frontmesh keys` read;
+/// the member defaults above equal its defaults (tests/pipeline/test_recipe.cpp).
+const core::ParamTable<RepairParams>& repair_keys();
+
+/// Throws InputError "repair.KEY: must be in RANGE, got VALUE" for a member outside its
+/// declared range.
 void validate(const RepairParams& params);
 
 /// Merges coincident points, drops degenerate and duplicate faces, removes small

@@ -4,6 +4,7 @@
 // triangles, the surface nodes and the regions are preserved exactly.
 
 #include "pipeline/core/stage_context.h"
+#include "pipeline/core/stage_params.h"
 #include "pipeline/core/tet_mesh.h"
 
 namespace frontmesh::volume {
@@ -46,7 +47,13 @@ struct RefineParams {
     int sliver_sweeps = 3;
 };
 
-/// Throws InputError naming the key `refine.<field>` when a parameter is out of range.
+/// Every `refine.*` recipe key: the member it sets, default, range, unit and a one-line doc
+/// (volume/refine_params.cpp). The one declaration validate(), the recipe reader and `frontmesh keys` read;
+/// the member defaults above equal its defaults (tests/pipeline/test_recipe.cpp).
+const core::ParamTable<RefineParams>& refine_keys();
+
+/// Throws InputError "refine.KEY: must be in RANGE, got VALUE" for a member outside its
+/// declared range.
 void validate(const RefineParams& params);
 
 /// Improves `mesh` (returns an improved copy): boundary and interface triangles (mesh.faces)

@@ -3,6 +3,7 @@
 // region at a time from its closed boundary; the input surface is kept exactly.
 
 #include "pipeline/core/stage_context.h"
+#include "pipeline/core/stage_params.h"
 #include "pipeline/core/surface_network.h"
 #include "pipeline/core/tet_mesh.h"
 
@@ -28,7 +29,13 @@ struct TetraParams {
     int max_closing_rounds = 8;
 };
 
-/// Throws InputError naming the key `tetra.<field>` when a field is out of range.
+/// Every `tetra.*` recipe key: the member it sets, default, range, unit and a one-line doc
+/// (volume/tetra_params.cpp). The one declaration validate(), the recipe reader and `frontmesh keys` read;
+/// the member defaults above equal its defaults (tests/pipeline/test_recipe.cpp).
+const core::ParamTable<TetraParams>& tetra_keys();
+
+/// Throws InputError "tetra.KEY: must be in RANGE, got VALUE" for a member outside its
+/// declared range.
 void validate(const TetraParams& params);
 
 /// Meshes every region of `surface` (closed, oriented SurfaceNetwork; faces' normals point out

@@ -5,9 +5,11 @@
 #include <catch2/catch.hpp>
 
 #include "io/image_reader.h"
+#include "io/mesh_io.h"
 #include "pipeline/core/error.h"
 #include "surface/extract.h"
 #include "tests/fixtures/phantoms.h"
+#include "tests/pipeline/cli_helpers.h"
 
 using namespace frontmesh;
 
@@ -352,4 +354,50 @@ TEST_CASE("AAL atlas with the example's label blur: every region kept, closed an
     CHECK(ctx.counters().at("extract.voxels_relabelled_by_blur") > 10000);
     CHECK(ctx.warnings() == std::vector<std::string>());
     require_closed_oriented_manifold(s);
+}
+
+TEST_CASE("extract applies its voxel closing and opening: a C++ caller gets the CLI's surface",
+          "[surface]") {
+    // Two blocks of labels 1 and 2 across a one-voxel slit (the closing fills it), and a
+    // one-voxel spike on block 1 (the opening removes it).
+    core::LabelImage image;
+    image.dims = {24, 16, 16};
+    image.labels.assign(image.voxel_count(), 0);
+    fill_box(image, {2, 2, 2}, {10, 13, 13}, 1);
+    fill_box(image, {12, 2, 2}, {21, 13, 13}, 2);
+    fill_box(image, {5, 14, 7}, {5, 15, 7}, 1);
+    const std::string dir = fixtures::temp_dir("extract_cleanup");
+    fixtures::write_metaimage(image, dir + "/blocks.mha");
+    const core::LabelImage read = io::read_label_image(dir + "/blocks.mha", io::ImageReadOptions{});
+
+    surface::ExtractParams params;
+    params.closing_voxels = 1;
+    params.opening_voxels = 1;
+    core::StageContext ctx;
+    const core::SurfaceNetwork cleaned = surface::extract(read, params, ctx);
+    CHECK(ctx.counters().at("extract.closing_filled_voxels") > 0);
+    CHECK(ctx.counters().at("extract.opening_removed_voxels") > 0);
+    require_closed_oriented_manifold(cleaned);
+    // The slit is gone: the two labels meet along an interface.
+    const auto interface = std::count_if(cleaned.region_out.begin(), cleaned.region_out.end(),
+                                         [](core::Label l) { return l != 0; });
+    CHECK(interface > 0);
+
+    core::StageContext plain_ctx;
+    const core::SurfaceNetwork plain = surface::extract(read, surface::ExtractParams{}, plain_ctx);
+    CHECK(plain.faces != cleaned.faces);
+    CHECK(plain_ctx.counters().count("extract.closing_filled_voxels") == 0);
+
+    // The command line, with the same two keys, writes exactly this surface.
+    testing::write_file(dir + "/r.yaml",
+                        "input:\n  image: blocks.mha\noutput:\n  dir: out\n"
+                        "extract:\n  closing_voxels: 1\n  opening_voxels: 1\n");
+    const auto run = testing::run_frontmesh("run r.yaml --until extract --quiet", dir);
+    INFO(run.err);
+    REQUIRE(run.exit_code == 0);
+    const core::SurfaceNetwork cli = io::read_surface(dir + "/out/checkpoints/01-extract.vtu");
+    CHECK(cli.xyz == cleaned.xyz);
+    CHECK(cli.faces == cleaned.faces);
+    CHECK(cli.region_in == cleaned.region_in);
+    CHECK(cli.region_out == cleaned.region_out);
 }
