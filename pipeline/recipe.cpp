@@ -154,7 +154,7 @@ void add_stage_keys(std::vector<KeySpec>& specs, Params Recipe::*section,
 }
 
 // input.* and output.*: read by the runner, not by a stage, so declared here.
-void add_input_output_keys(std::vector<KeySpec>& specs) {
+void add_input_keys(std::vector<KeySpec>& specs) {
     const core::ParamRange threshold = core::closed(-1e300, 1e300);
     const core::ParamRange spacing = core::closed(1e-6, 1e6);
     specs.push_back({"input.image", "null", "", "",
@@ -204,6 +204,9 @@ void add_input_output_keys(std::vector<KeySpec>& specs) {
                      [](const YAML::Node& n, Recipe& r, const Where& w) {
                          r.input.label_names = resolve_input_path(as_string(n, w), r.path);
                      }});
+}
+
+void add_output_keys(std::vector<KeySpec>& specs) {
     specs.push_back({"output.dir", "frontmesh-out", "", "",
                      "folder of the checkpoints, summary, log and result",
                      [](const YAML::Node& n, Recipe& r, const Where& w) {
@@ -270,7 +273,8 @@ Apply remesh_label_edge_length() {
 const std::vector<KeySpec>& key_specs() {
     static const std::vector<KeySpec> specs = [] {
         std::vector<KeySpec> s;
-        add_input_output_keys(s);
+        add_input_keys(s);
+        add_output_keys(s);
         add_stage_keys(s, &Recipe::extract, surface::extract_keys(),
                        {{"extract.method", extract_method()}});
         add_stage_keys(s, &Recipe::repair, surface::repair_keys());
@@ -401,7 +405,8 @@ Recipe load_recipe(const std::string& path, const std::vector<std::string>& over
 
 std::vector<RecipeKey> recipe_keys() {
     std::vector<RecipeKey> keys;
-    for (const auto& spec : key_specs()) keys.push_back({spec.path, spec.default_yaml, spec.range, spec.unit, spec.doc});
+    for (const auto& spec : key_specs())
+        keys.push_back({spec.path, spec.default_yaml, spec.range, spec.unit, spec.doc});
     return keys;
 }
 

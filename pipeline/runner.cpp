@@ -599,6 +599,7 @@ void Run::write_stage_summary(int i, const core::StageContext& ctx, double wall,
 // quality report after refine; surface.vtu, a copy of the last checkpoint, for a surface.
 // When every stage was up to date, only missing result files are written.
 std::string Run::write_results() {
+    check_cancelled("before writing the result");
     prepare_folder();
     const bool ran_any = first_ <= last_;
     const fs::path last_checkpoint = out_.checkpoint(stages_[last_]);

@@ -697,14 +697,14 @@ std::vector<Label> cleaned_labels(const core::LabelImage& image, const ExtractPa
     if (params.closing_voxels > 0) {
         const std::size_t n = close_object(work, params.closing_voxels);
         ctx.count("extract.closing_filled_voxels", double(n));
-        ctx.info("extract: closing of " + std::to_string(params.closing_voxels) + " voxel(s) filled " +
-                 std::to_string(n) + " voxels");
+        ctx.info("extract: closing of " + std::to_string(params.closing_voxels) +
+                 " voxel(s) filled " + std::to_string(n) + " voxels");
     }
     if (params.opening_voxels > 0) {
         const std::size_t n = open_object(work, params.opening_voxels);
         ctx.count("extract.opening_removed_voxels", double(n));
-        ctx.info("extract: opening of " + std::to_string(params.opening_voxels) + " voxel(s) removed " +
-                 std::to_string(n) + " voxels");
+        ctx.info("extract: opening of " + std::to_string(params.opening_voxels) +
+                 " voxel(s) removed " + std::to_string(n) + " voxels");
     }
     return std::move(work.labels);
 }

@@ -1,5 +1,12 @@
 #pragma once
-// Extract stage: LabelImage -> SurfaceNetwork (the background surface of the remesher).
+// Extract stage, the first half of the paper's §2 background-mesh preparation ("a quality
+// surface mesh is generated on an underlying discrete surface called a background mesh").
+//   In:  a LabelImage (voxel labels, spacing, origin, direction), ExtractParams.
+//   Out: a SurfaceNetwork in mm in the image's frame: one closed, outward-oriented
+//        triangle boundary per chosen label, each interface once with both labels
+//        (region_in / region_out). Before contouring, the optional voxel closing and
+//        opening (surface/morphology.h) and the manifold clean-up edit the labels.
+//   Next: repair.
 
 #include <vector>
 
@@ -16,7 +23,8 @@ enum class ExtractMethod {
     SurfaceNets,  ///< multi-label surface nets: every cube decided once for all labels
 };
 
-/// Parameters of the extract stage; defaults equal configs/reference.yaml (`extract.*`).
+/// Parameters of the extract stage: member `m` is recipe key `extract.m` (except `labels`,
+/// from `input.labels`); default, range and unit are declared in extract_keys().
 struct ExtractParams {
     std::vector<core::Label> labels;  ///< labels to mesh (`input.labels`); empty = all
     ExtractMethod method = ExtractMethod::Auto;
@@ -45,13 +53,13 @@ struct ExtractParams {
     int opening_voxels = 0;
 };
 
-/// Every `extract.*` recipe key: the member it sets, default, range, unit and a one-line doc
-/// (surface/extract_params.cpp). The one declaration validate(), the recipe reader and `frontmesh keys` read;
-/// the member defaults above equal its defaults (tests/pipeline/test_recipe.cpp).
+/// Every `extract.*` recipe key: the member it sets, default, range, unit and a one-line
+/// doc (surface/extract_params.cpp). The one declaration that validate(), the recipe reader
+/// and `frontmesh keys` read; the member defaults above equal its defaults (a test checks).
 const core::ParamTable<ExtractParams>& extract_keys();
 
 /// Throws InputError "extract.KEY: must be in RANGE, got VALUE" for a member outside its
-/// declared range.
+/// declared range, and "input.labels: ..." for a label <= 0.
 void validate(const ExtractParams& params);
 
 /// Contours the chosen labels. With several labels the result is one network: each

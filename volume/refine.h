@@ -1,7 +1,10 @@
 #pragma once
-// Refine stage (§3.3): node removal, angle-based node smoothing and flips ("Delaunay
-// refinement"), then a sliver pass beyond the paper. TetMesh -> TetMesh; the input surface
-// triangles, the surface nodes and the regions are preserved exactly.
+// Refine stage, the paper's §3.3: node removal, angle-based node smoothing and flips
+// ("Delaunay refinement"), then a sliver pass beyond the paper.
+//   In:  the TetMesh of tetra, RefineParams.
+//   Out: an improved TetMesh; the input surface triangles, the surface nodes and the regions
+//        are preserved exactly.
+//   Last stage: the runner writes mesh.vtu and the exports from it.
 
 #include "pipeline/core/stage_context.h"
 #include "pipeline/core/stage_params.h"
@@ -9,7 +12,8 @@
 
 namespace frontmesh::volume {
 
-/// Parameters of refine(); every field is recipe key `refine.<field>`.
+/// Parameters of refine(): member `m` is recipe key `refine.m`; default, range and unit are
+/// declared in refine_keys().
 struct RefineParams {
     /// §3.3.1: remove interior nodes with few tets around them (4: "inside a tetrahedron",
     /// 6: "inside a pyramid") and re-tetrahedralise the hole. bool.
@@ -47,9 +51,9 @@ struct RefineParams {
     int sliver_sweeps = 3;
 };
 
-/// Every `refine.*` recipe key: the member it sets, default, range, unit and a one-line doc
-/// (volume/refine_params.cpp). The one declaration validate(), the recipe reader and `frontmesh keys` read;
-/// the member defaults above equal its defaults (tests/pipeline/test_recipe.cpp).
+/// Every `refine.*` recipe key: the member it sets, default, range, unit and a one-line
+/// doc (volume/refine_params.cpp). The one declaration that validate(), the recipe reader
+/// and `frontmesh keys` read; the member defaults above equal its defaults (a test checks).
 const core::ParamTable<RefineParams>& refine_keys();
 
 /// Throws InputError "refine.KEY: must be in RANGE, got VALUE" for a member outside its

@@ -34,6 +34,7 @@ struct ParamRange {
     /// "[0, 100]", "(1, 2]", ">= 0"
     std::string text() const {
         std::ostringstream s;
+        s.precision(10);
         if (std::isinf(hi)) {
             s << (lo_open ? "> " : ">= ") << lo;
         } else if (std::isinf(lo)) {
@@ -47,6 +48,7 @@ struct ParamRange {
     /// the user wrote it); "must be greater than 1, got 1" when it sits on an open lower end.
     std::string violation(double v, const std::string& got) const {
         std::ostringstream s;
+        s.precision(10);
         if (lo_open && v == lo && !std::isinf(hi))
             s << "must be greater than " << lo << ", got " << got;
         else
@@ -110,6 +112,7 @@ double field_value(const Params& params, const typename ParamSpec<Params>::Field
 /// The value of a number as a user would write it: "1.15", "200", "1e-06".
 inline std::string value_text(double v) {
     std::ostringstream s;
+    s.precision(10);
     s << v;
     return s.str();
 }

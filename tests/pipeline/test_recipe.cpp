@@ -183,7 +183,8 @@ void check_declarations(const core::ParamTable<Params>& table, const std::string
         CHECK(spec.range.contains(declared_default(spec)));
         for (const double outside : {spec.range.lo_open ? spec.range.lo : spec.range.lo - 1.0,
                                      spec.range.hi_open ? spec.range.hi : spec.range.hi + 1.0}) {
-            if (std::isinf(outside) || (outside < 0.0 && std::holds_alternative<std::size_t Params::*>(spec.field)))
+            if (std::isinf(outside) ||
+                (outside < 0.0 && std::holds_alternative<std::size_t Params::*>(spec.field)))
                 continue;
             Params p{};
             set_field(p, spec.field, outside);
@@ -210,7 +211,8 @@ std::string other_value(const core::ParamSpec<Params>& spec) {
 // Setting any typed key to another value changes its stage's canonical parameters (the
 // stage hash): canonical_params() lists every key of the table.
 template <typename Params>
-void check_hashed(const core::ParamTable<Params>& table, const std::string& section, const std::string& recipe) {
+void check_hashed(const core::ParamTable<Params>& table, const std::string& section,
+                  const std::string& recipe) {
     const std::string before = pipeline::canonical_params(pipeline::load_recipe(recipe), section);
     for (const auto& spec : table) {
         if (std::holds_alternative<std::monostate>(spec.field)) continue;
@@ -240,7 +242,8 @@ TEST_CASE("each stage declares every key once: defaults, ranges and validate agr
     defaults.input = loaded.input;
     for (const std::string section : {"extract", "repair", "remesh", "tetra", "refine"}) {
         INFO(section);
-        CHECK(pipeline::canonical_params(loaded, section) == pipeline::canonical_params(defaults, section));
+        CHECK(pipeline::canonical_params(loaded, section) ==
+              pipeline::canonical_params(defaults, section));
     }
 
     // Keys are unique and every stage key is a recipe key.
@@ -261,15 +264,17 @@ TEST_CASE("every stage key is part of its stage's hash", "[pipeline]") {
     check_hashed(volume::tetra_keys(), "tetra", recipe);
     check_hashed(volume::refine_keys(), "refine", recipe);
     const auto base = pipeline::load_recipe(recipe);
-    CHECK(pipeline::canonical_params(pipeline::load_recipe(recipe, {"extract.method=surface_nets"}), "extract") !=
-          pipeline::canonical_params(base, "extract"));
-    CHECK(pipeline::canonical_params(pipeline::load_recipe(recipe, {"remesh.label_edge_length={1: 2.0}"}), "remesh") !=
+    CHECK(pipeline::canonical_params(pipeline::load_recipe(recipe, {"extract.method=surface_nets"}),
+                                     "extract") != pipeline::canonical_params(base, "extract"));
+    CHECK(pipeline::canonical_params(
+              pipeline::load_recipe(recipe, {"remesh.label_edge_length={1: 2.0}"}), "remesh") !=
           pipeline::canonical_params(base, "remesh"));
 }
 
 TEST_CASE("hand-read keys use their declared choices and ranges", "[pipeline]") {
-    CHECK_THAT(error_of("input:\n  image: ball.mha\nextract:\n  method: marching\n"),
-               Catch::Contains("extract.method") && Catch::Contains("auto, flying_edges, surface_nets"));
+    CHECK_THAT(
+        error_of("input:\n  image: ball.mha\nextract:\n  method: marching\n"),
+        Catch::Contains("extract.method") && Catch::Contains("auto, flying_edges, surface_nets"));
     CHECK_THAT(error_of("input:\n  image: ball.mha\nremesh:\n  label_edge_length: {3: 20000}\n"),
                Catch::Contains("remesh.label_edge_length") && Catch::Contains("(0, 10000]"));
     CHECK_THAT(error_of("input:\n  image: ball.mha\nremesh:\n  label_edge_length: {3: 0}\n"),

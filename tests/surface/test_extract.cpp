@@ -105,7 +105,7 @@ surface::ExtractParams with_method(surface::ExtractMethod m) {
 
 }  // namespace
 
-TEST_CASE("flying edges on a ball: closed, outward, volume of the voxels", "[surface]") {
+TEST_CASE("extract: flying edges on a ball: closed, outward, volume of the voxels", "[surface]") {
     const auto image = fixtures::sphere_image(64, 24.0, 1.0, 3);
     core::StageContext ctx;
     const auto s = surface::extract(image, with_method(surface::ExtractMethod::FlyingEdges), ctx);
@@ -116,7 +116,7 @@ TEST_CASE("flying edges on a ball: closed, outward, volume of the voxels", "[sur
     CHECK(s.region_out.front() == 0);
 }
 
-TEST_CASE("surface nets on a ball: closed, outward, volume of the voxels", "[surface]") {
+TEST_CASE("extract: surface nets on a ball: closed, outward, volume of the voxels", "[surface]") {
     const auto image = fixtures::sphere_image(64, 24.0, 1.0, 1);
     core::StageContext ctx;
     const auto s = surface::extract(image, with_method(surface::ExtractMethod::SurfaceNets), ctx);
@@ -125,7 +125,9 @@ TEST_CASE("surface nets on a ball: closed, outward, volume of the voxels", "[sur
     CHECK(core::enclosed_volume(s, 1) == Approx(labelled_volume(image, 1)).epsilon(0.01));
 }
 
-TEST_CASE("surface nets with a label blur: a one-voxel fin goes, labels and interfaces stay", "[surface]") {
+TEST_CASE(
+    "extract: surface nets with a label blur: a one-voxel fin goes, labels and interfaces stay",
+    "[surface]") {
     // Split ball (labels 1 and 2 share a flat interface) with a one-voxel-thick fin of label
     // 1 sticking out six voxels along +z.
     auto image = fixtures::split_ball_image(40, 12.0);
@@ -168,7 +170,7 @@ TEST_CASE("surface nets with a label blur: a one-voxel fin goes, labels and inte
     CHECK(speck_ctx.warnings()[0].find("label(s) 2") != std::string::npos);
 }
 
-TEST_CASE("a torus has genus one", "[surface]") {
+TEST_CASE("extract: a torus has genus one", "[surface]") {
     const auto image = fixtures::torus_image(30.0, 14.0, 1.0);
     core::StageContext ctx;
     for (auto method : {surface::ExtractMethod::FlyingEdges, surface::ExtractMethod::SurfaceNets}) {
@@ -179,7 +181,8 @@ TEST_CASE("a torus has genus one", "[surface]") {
     }
 }
 
-TEST_CASE("nested ellipsoids: one network, interfaces shared once, regions closed", "[surface]") {
+TEST_CASE("extract: nested ellipsoids: one network, interfaces shared once, regions closed",
+          "[surface]") {
     const auto image = fixtures::nested_ellipsoids_image(1.0, 1.5);
     core::StageContext ctx;
     const auto s = surface::extract(image, surface::ExtractParams{}, ctx);
@@ -208,7 +211,7 @@ TEST_CASE("nested ellipsoids: one network, interfaces shared once, regions close
     }
 }
 
-TEST_CASE("a reflecting direction matrix keeps faces outward", "[surface]") {
+TEST_CASE("extract: a reflecting direction matrix keeps faces outward", "[surface]") {
     auto image = fixtures::sphere_image(40, 12.0, 1.0);
     image.direction.col(0) *= -1.0;
     core::StageContext ctx;
@@ -218,7 +221,8 @@ TEST_CASE("a reflecting direction matrix keeps faces outward", "[surface]") {
     }
 }
 
-TEST_CASE("voxels touching along an edge or a corner are joined into a manifold", "[surface]") {
+TEST_CASE("extract: voxels touching along an edge or a corner are joined into a manifold",
+          "[surface]") {
     core::LabelImage image;
     image.dims = {8, 8, 8};
     image.labels.assign(512, 0);
@@ -235,7 +239,8 @@ TEST_CASE("voxels touching along an edge or a corner are joined into a manifold"
 }
 
 TEST_CASE(
-    "two labels meeting the outside along an edge or at a corner: the union boundary is manifold",
+    "extract: two labels meeting the outside along an edge or at a corner: the union boundary is "
+    "manifold",
     "[surface][extract]") {
     // Labels 1 and 2 touch only along a line of voxel edges, with 0 in the two other
     // voxels around it (1, 0, 2, 0); label 3 touches label 2 only at one voxel corner.
@@ -267,7 +272,7 @@ TEST_CASE(
     CHECK(ctx.counters().at("extract.voxels_changed_for_manifold") >= 1);
 }
 
-TEST_CASE("random labels: the clean-up ends with every region and their union manifold",
+TEST_CASE("extract: random labels: the clean-up ends with every region and their union manifold",
           "[surface][extract]") {
     // Salt and pepper of three labels and the outside: every kind of edge and corner
     // contact, many not mended by growing, so the shrinking phase runs too.
@@ -295,7 +300,7 @@ TEST_CASE("random labels: the clean-up ends with every region and their union ma
     }
 }
 
-TEST_CASE("label selection and its errors", "[surface]") {
+TEST_CASE("extract: label selection and its errors", "[surface]") {
     auto image = fixtures::nested_ellipsoids_image(1.0, 0.6);
     core::StageContext ctx;
     surface::ExtractParams p;
@@ -320,7 +325,8 @@ TEST_CASE("label selection and its errors", "[surface]") {
     CHECK_THROWS_AS(surface::extract(image, surface::ExtractParams{}, ctx), core::InputError);
 }
 
-TEST_CASE("AAL atlas: 116 regions closed and oriented, interfaces shared", "[surface][e2e]") {
+TEST_CASE("extract: AAL atlas: 116 regions closed and oriented, interfaces shared",
+          "[surface][e2e]") {
     const std::string path = "/usr/share/mricron/templates/aal.nii.gz";
     const auto image = io::read_label_image(path, io::ImageReadOptions{});
     core::StageContext ctx;
@@ -343,7 +349,9 @@ TEST_CASE("AAL atlas: 116 regions closed and oriented, interfaces shared", "[sur
     CHECK(interface_faces > 100000);
 }
 
-TEST_CASE("AAL atlas with the example's label blur: every region kept, closed and oriented", "[surface][e2e]") {
+TEST_CASE(
+    "extract: AAL atlas with the example's label blur: every region kept, closed and oriented",
+    "[surface][e2e]") {
     const std::string path = "/usr/share/mricron/templates/aal.nii.gz";
     const auto image = io::read_label_image(path, io::ImageReadOptions{});
     core::StageContext ctx;
