@@ -614,6 +614,41 @@ void write_surface_vtu(const core::SurfaceNetwork& surface, const std::string& p
     write_atomically(path, [&](const std::string& temp) { write_grid(grid, path, temp); });
 }
 
+void write_diagnostic_vtu(const core::Diagnostic& diagnostic, const std::string& path,
+                          const FieldStrings& fields) {
+    FM_CHECK(diagnostic.xyz.size() % 3 == 0);
+    FM_CHECK(diagnostic.kind.size() == diagnostic.cells.size());
+    const auto n_points = static_cast<vtkIdType>(diagnostic.xyz.size() / 3);
+    auto grid = vtkSmartPointer<vtkUnstructuredGrid>::New();
+    vtkNew<vtkDoubleArray> coords;
+    coords->SetNumberOfComponents(3);
+    coords->SetNumberOfTuples(n_points);
+    std::copy(diagnostic.xyz.begin(), diagnostic.xyz.end(), coords->GetPointer(0));
+    vtkNew<vtkPoints> points;
+    points->SetData(coords);
+    grid->SetPoints(points);
+    grid->AllocateExact(static_cast<vtkIdType>(diagnostic.cells.size()), 4);
+    for (const auto& cell : diagnostic.cells) {
+        FM_CHECK(cell.size() >= 2 && cell.size() <= 4);
+        std::array<vtkIdType, 4> ids{};
+        for (std::size_t k = 0; k < cell.size(); ++k) {
+            FM_CHECK(cell[k] >= 0 && cell[k] < n_points);
+            ids[k] = cell[k];
+        }
+        const int type = cell.size() == 2 ? VTK_LINE : cell.size() == 3 ? VTK_TRIANGLE : VTK_TETRA;
+        grid->InsertNextCell(type, static_cast<vtkIdType>(cell.size()), ids.data());
+    }
+    vtkNew<vtkIntArray> kind;
+    kind->SetName("kind");
+    kind->SetNumberOfTuples(static_cast<vtkIdType>(diagnostic.kind.size()));
+    std::copy(diagnostic.kind.begin(), diagnostic.kind.end(), kind->GetPointer(0));
+    grid->GetCellData()->AddArray(kind);
+    FieldStrings strings = fields;
+    strings["what"] = diagnostic.what;
+    add_field_strings(grid->GetFieldData(), strings);
+    write_atomically(path, [&](const std::string& temp) { write_grid(grid, path, temp); });
+}
+
 core::SurfaceNetwork read_surface(const std::string& path, FieldStrings* fields) {
     std::error_code ec;
     if (!fs::exists(path, ec)) FM_THROW(InputError, quoted(path) + " does not exist");

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "pipeline/core/quality.h"
+#include "pipeline/core/stage_context.h"
 #include "pipeline/core/surface_network.h"
 #include "pipeline/core/tet_mesh.h"
 
@@ -50,6 +51,14 @@ void write_tet_mesh_vtu(const core::TetMesh& mesh, const std::string& path,
 /// boundary faces are derived: faces of one tet, or between tets of different regions).
 /// Tets of negative volume are reordered. Throws InputError naming the file on bad input.
 core::TetMesh read_tet_mesh(const std::string& path, FieldStrings* fields = nullptr);
+
+/// Writes geometry a stage handed to the diagnostics sink as a VTK XML unstructured grid,
+/// atomically: its points, its cells as lines, triangles and tets (2, 3 or 4 points), the
+/// cell array `kind` (int32) and, in field data, the text `what` plus one string array per
+/// entry of `fields`. Throws IoError naming `path` when it cannot be written, InternalError
+/// for a cell of another size or a point id out of range.
+void write_diagnostic_vtu(const core::Diagnostic& diagnostic, const std::string& path,
+                          const FieldStrings& fields = {});
 
 /// Writes a ParaView collection (.pvd) listing `entries` as (file, name) pairs, in order:
 /// `file` is relative to the folder of `path`, `name` labels the dataset. Entry i gets

@@ -33,7 +33,7 @@ Usage:
                             [--until STAGE] [--force] [--threads N] [--quiet]
   frontmesh check MESH [--json] [--surface REF]
   frontmesh convert IN OUT [--format NAME] [--labels TABLE]
-  frontmesh keys                 list every recipe key with its default
+  frontmesh keys                 list every recipe key: default, doc, unit, range
   frontmesh --help | --version
 
 Commands:
@@ -73,8 +73,10 @@ Stages, in order: extract, repair, remesh, tetra, refine.
 A stage whose input and parameters are unchanged since the last run is skipped.
 Every recipe key, its default and unit: configs/reference.yaml.
 
-Exit codes: 0 success, 2 bad input or recipe, 1 internal failure
-(cohort: 2 bad manifest or recipe, 1 when any subject failed).
+Exit codes: 0 success, 2 bad input or recipe, 1 internal failure, 130 interrupted
+(Ctrl-C or SIGTERM: the running stage stops, finished checkpoints are kept and
+summary.json says "interrupted"; cohort: 2 bad manifest or recipe, 1 when any
+subject failed).
 )";
 
 struct Arguments {
@@ -161,6 +163,17 @@ int run_cohort_command(const Arguments& args) {
     return result.count(SubjectStatus::Failed) ? 1 : 0;
 }
 
+// "key: default" then, from column 48, "# doc (unit, range)".
+void print_keys() {
+    for (const RecipeKey& k : recipe_keys()) {
+        std::string line = k.key + ": " + k.default_yaml;
+        line.resize(std::max<std::size_t>(line.size() + 1, 47), ' ');
+        std::string detail = k.unit;
+        if (!k.range.empty()) detail += (detail.empty() ? "" : ", ") + k.range;
+        std::cout << line << "# " << k.doc << (detail.empty() ? "" : " (" + detail + ")") << '\n';
+    }
+}
+
 int run_check_command(const Arguments& args) {
     if (args.recipe.empty()) FM_THROW(InputError, "check: usage: frontmesh check MESH [--json] [--surface REF]");
     const MeshReport report = check_mesh_file(args.recipe, args.surface);
@@ -206,7 +219,7 @@ int run_cli(int argc, char** argv) {
             return 2;
         }
         if (args.command == "keys") {
-            for (const auto& [key, value] : recipe_keys()) std::cout << key << ": " << value << '\n';
+            print_keys();
             return 0;
         }
         const bool mesh_command = args.command == "check" || args.command == "convert";
@@ -244,6 +257,9 @@ int run_cli(int argc, char** argv) {
     } catch (const core::InputError& e) {
         std::cerr << "frontmesh: error: " << e.what() << '\n';
         return 2;
+    } catch (const core::CancelledError& e) {
+        std::cerr << "frontmesh: " << e.what() << '\n';
+        return 130;  // as a shell reports a process ended by SIGINT
     } catch (const core::Error& e) {
         std::cerr << "frontmesh: error: " << e.what() << '\n';
         return 1;

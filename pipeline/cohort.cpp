@@ -583,7 +583,8 @@ CohortResult run_cohort(const std::string& manifest_path, const CohortOptions& o
     const std::string at_header = manifest_path + ":" + std::to_string(manifest.header_line) + ": ";
     for (const auto& column : manifest.columns) {
         if (column == "id" || column == "image") continue;
-        if (std::any_of(keys.begin(), keys.end(), [&](const auto& k) { return k.first == column; })) continue;
+        if (std::any_of(keys.begin(), keys.end(), [&](const auto& k) { return k.key == column; }))
+            continue;
         std::vector<std::string> probe = base;
         probe.push_back(column + "=null");
         try {

@@ -3,6 +3,11 @@
 #include <algorithm>
 #include <filesystem>
 #include <functional>
+#include <map>
+#include <string_view>
+#include <type_traits>
+#include <utility>
+#include <variant>
 #include <sstream>
 
 #include <yaml-cpp/yaml.h>
@@ -31,24 +36,21 @@ std::string describe(const YAML::Node& node) {
     return "'" + node.Scalar() + "'";
 }
 
-double as_number(const YAML::Node& node, const Where& where, double lo, double hi) {
+// A number within `range`; the error names the value as it was written.
+double as_number(const YAML::Node& node, const Where& where, const core::ParamRange& range) {
     double value = 0.0;
     if (!node.IsScalar() || !YAML::convert<double>::decode(node, value))
         where.fail("expected a number, got " + describe(node));
-    if (!(value >= lo && value <= hi)) {
-        std::ostringstream s;
-        s << "must be in [" << lo << ", " << hi << "], got " << node.Scalar();
-        where.fail(s.str());
-    }
+    if (!range.contains(value)) where.fail(range.violation(value, node.Scalar()));
     return value;
 }
 
-long long as_integer(const YAML::Node& node, const Where& where, long long lo, long long hi) {
+long long as_integer(const YAML::Node& node, const Where& where, const core::ParamRange& range) {
     long long value = 0;
     if (!node.IsScalar() || !YAML::convert<long long>::decode(node, value))
         where.fail("expected a whole number, got " + describe(node));
-    if (value < lo || value > hi)
-        where.fail("must be in [" + std::to_string(lo) + ", " + std::to_string(hi) + "], got " + node.Scalar());
+    if (!range.contains(static_cast<double>(value)))
+        where.fail(range.violation(static_cast<double>(value), node.Scalar()));
     return value;
 }
 
@@ -96,194 +98,194 @@ std::size_t edit_distance(const std::string& a, const std::string& b) {
     return row[b.size()];
 }
 
+using Apply = std::function<void(const YAML::Node&, Recipe&, const Where&)>;
+
 struct KeySpec {
     std::string path;
     std::string default_yaml;
-    std::function<void(const YAML::Node&, Recipe&, const Where&)> apply;
+    std::string range;  // "[0, 100]"; empty for texts, choices and switches
+    std::string unit;
+    std::string doc;
+    Apply apply;
 };
 
-// Keys that set one field of a stage's parameters, with their range.
-template <typename Section>
-KeySpec number_key(std::string path, std::string default_yaml, Section Recipe::*section, double Section::*field,
-                   double lo, double hi, bool open_below = false) {
-    return {std::move(path), std::move(default_yaml),
-            [=](const YAML::Node& n, Recipe& r, const Where& w) {
-                const double v = as_number(n, w, lo, hi);
-                if (open_below && v == lo) {
-                    std::ostringstream s;
-                    s << "must be greater than " << lo << ", got " << n.Scalar();
-                    w.fail(s.str());
+// The keys of one stage, from its declaration table (e.g. volume::tetra_keys()): a typed
+// member is parsed and range-checked here; a key without one (a choice, a map) is applied
+// by the function `by_hand` gives for it.
+template <typename Params>
+void add_stage_keys(std::vector<KeySpec>& specs, Params Recipe::*section,
+                    const core::ParamTable<Params>& table,
+                    const std::map<std::string_view, Apply>& by_hand = {}) {
+    for (const auto& spec : table) {
+        KeySpec key{std::string(spec.key),  std::string(spec.default_yaml), {},
+                    std::string(spec.unit), std::string(spec.doc),          {}};
+        std::visit(
+            [&](auto member) {
+                using Member = decltype(member);
+                if constexpr (std::is_same_v<Member, std::monostate>) {
+                    const auto it = by_hand.find(spec.key);
+                    FM_CHECK(it != by_hand.end());
+                    key.apply = it->second;
+                    key.range =
+                        spec.choices.empty() ? spec.range.text() : std::string(spec.choices);
+                } else if constexpr (std::is_same_v<Member, bool Params::*>) {
+                    key.apply = [=](const YAML::Node& n, Recipe& r, const Where& w) {
+                        r.*section.*member = as_bool(n, w);
+                    };
+                } else if constexpr (std::is_same_v<Member, double Params::*>) {
+                    key.range = spec.range.text();
+                    key.apply = [=, range = spec.range](const YAML::Node& n, Recipe& r,
+                                                        const Where& w) {
+                        r.*section.*member = as_number(n, w, range);
+                    };
+                } else {
+                    using Value =
+                        std::remove_reference_t<decltype(std::declval<Params&>().*member)>;
+                    key.range = spec.range.text();
+                    key.apply = [=, range = spec.range](const YAML::Node& n, Recipe& r,
+                                                        const Where& w) {
+                        r.*section.*member = static_cast<Value>(as_integer(n, w, range));
+                    };
                 }
-                r.*section.*field = v;
-            }};
+            },
+            spec.field);
+        specs.push_back(std::move(key));
+    }
 }
 
-template <typename Section>
-KeySpec integer_key(std::string path, std::string default_yaml, Section Recipe::*section, int Section::*field,
-                    int lo, int hi) {
-    return {std::move(path), std::move(default_yaml), [=](const YAML::Node& n, Recipe& r, const Where& w) {
-                r.*section.*field = static_cast<int>(as_integer(n, w, lo, hi));
-            }};
-}
-
-template <typename Section>
-KeySpec bool_key(std::string path, std::string default_yaml, Section Recipe::*section, bool Section::*field) {
-    return {std::move(path), std::move(default_yaml),
-            [=](const YAML::Node& n, Recipe& r, const Where& w) { r.*section.*field = as_bool(n, w); }};
-}
-
-const std::vector<KeySpec>& key_specs() {
-    static const std::vector<KeySpec> specs = {
-        {"input.image", "null",
-         [](const YAML::Node& n, Recipe& r, const Where& w) { r.input.image = resolve_input_path(as_string(n, w), r.path); }},
-        {"input.surface", "null",
-         [](const YAML::Node& n, Recipe& r, const Where& w) { r.input.surface = resolve_input_path(as_string(n, w), r.path); }},
-        {"input.labels", "all",
+// input.* and output.*: read by the runner, not by a stage, so declared here.
+void add_input_keys(std::vector<KeySpec>& specs) {
+    const core::ParamRange threshold = core::closed(-1e300, 1e300);
+    const core::ParamRange spacing = core::closed(1e-6, 1e6);
+    specs.push_back({"input.image", "null", "", "",
+                     "image file, DICOM folder or slice pattern; or input.surface",
+                     [](const YAML::Node& n, Recipe& r, const Where& w) {
+                         r.input.image = resolve_input_path(as_string(n, w), r.path);
+                     }});
+    specs.push_back({"input.surface", "null", "", "",
+                     "triangle surface to start from (enters at repair)",
+                     [](const YAML::Node& n, Recipe& r, const Where& w) {
+                         r.input.surface = resolve_input_path(as_string(n, w), r.path);
+                     }});
+    specs.push_back(
+        {"input.labels", "all", "", "", "labels to mesh: all, or a list such as [1, 4]",
          [](const YAML::Node& n, Recipe& r, const Where& w) {
              r.input.labels.clear();
              if (n.IsScalar() && n.Scalar() == "all") return;
-             if (!n.IsSequence()) w.fail("expected 'all' or a list of labels such as [1, 2], got " + describe(n));
+             if (!n.IsSequence())
+                 w.fail("expected 'all' or a list of labels such as [1, 2], got " + describe(n));
              if (n.size() == 0) w.fail("the list is empty; give at least one label, or 'all'");
              for (std::size_t i = 0; i < n.size(); ++i) {
-                 const auto label = static_cast<core::Label>(as_integer(n[i], w, 1, INT32_MAX));
-                 if (std::find(r.input.labels.begin(), r.input.labels.end(), label) != r.input.labels.end())
+                 const auto label =
+                     static_cast<core::Label>(as_integer(n[i], w, core::closed(1, INT32_MAX)));
+                 if (std::find(r.input.labels.begin(), r.input.labels.end(), label) !=
+                     r.input.labels.end())
                      w.fail("label " + std::to_string(label) + " is listed twice");
                  r.input.labels.push_back(label);
              }
              std::sort(r.input.labels.begin(), r.input.labels.end());
-         }},
-        {"input.threshold", "null",
-         [](const YAML::Node& n, Recipe& r, const Where& w) { r.input.threshold = as_number(n, w, -1e300, 1e300); }},
-        {"input.spacing", "null",
-         [](const YAML::Node& n, Recipe& r, const Where& w) {
-             if (!n.IsSequence() || n.size() != 3) w.fail("expected three numbers [x, y, z] in mm, got " + describe(n));
-             Eigen::Vector3d s;
-             for (int i = 0; i < 3; ++i) s[i] = as_number(n[i], w, 1e-6, 1e6);
-             r.input.spacing = s;
-         }},
-        {"input.label_names", "null",
-         [](const YAML::Node& n, Recipe& r, const Where& w) {
-             r.input.label_names = resolve_input_path(as_string(n, w), r.path);
-         }},
-        {"output.dir", "frontmesh-out",
-         [](const YAML::Node& n, Recipe& r, const Where& w) {
-             r.output.dir = fs::absolute(fs::path(as_string(n, w))).lexically_normal().string();
-         }},
-        {"output.frame", "lps",
-         [](const YAML::Node& n, Recipe& r, const Where& w) {
-             r.output.frame = as_choice(n, w, {"lps", "ras"}) == "ras" ? core::Frame::Ras : core::Frame::Lps;
-         }},
-        {"output.formats", "[vtu]",
-         [](const YAML::Node& n, Recipe& r, const Where& w) {
-             if (!n.IsSequence() || n.size() == 0)
-                 w.fail("expected a list of formats such as [vtu, msh, inp], got " + describe(n));
-             r.output.formats.clear();
-             for (std::size_t i = 0; i < n.size(); ++i) {
-                 const std::string f = as_choice(n[i], w, io::format_names());
-                 if (std::find(r.output.formats.begin(), r.output.formats.end(), f) != r.output.formats.end())
-                     w.fail("format " + f + " is listed twice");
-                 r.output.formats.push_back(f);
-             }
-         }},
-        {"output.quality_report", "true",
-         [](const YAML::Node& n, Recipe& r, const Where& w) { r.output.quality_report = as_bool(n, w); }},
-        {"extract.method", "auto",
-         [](const YAML::Node& n, Recipe& r, const Where& w) {
-             const std::string m = as_choice(n, w, {"auto", "flying_edges", "surface_nets"});
-             r.extract.method = m == "auto"           ? surface::ExtractMethod::Auto
-                                : m == "flying_edges" ? surface::ExtractMethod::FlyingEdges
-                                                      : surface::ExtractMethod::SurfaceNets;
-         }},
-        {"extract.blur_sigma_mm", "0.0",
-         [](const YAML::Node& n, Recipe& r, const Where& w) { r.extract.blur_sigma_mm = as_number(n, w, 0.0, 100.0); }},
-        {"extract.smoothing_iterations", "8",
-         [](const YAML::Node& n, Recipe& r, const Where& w) {
-             r.extract.smoothing_iterations = static_cast<int>(as_integer(n, w, 0, 1000));
-         }},
-        {"extract.smoothing_relaxation", "0.5",
-         [](const YAML::Node& n, Recipe& r, const Where& w) {
-             r.extract.smoothing_relaxation = as_number(n, w, 1e-6, 1.0);
-         }},
-        {"extract.manifold_cleanup", "true",
-         [](const YAML::Node& n, Recipe& r, const Where& w) { r.extract.manifold_cleanup = as_bool(n, w); }},
-        integer_key("extract.closing_voxels", "0", &Recipe::morphology, &surface::MorphologyParams::closing_voxels, 0,
-                    10),
-        integer_key("extract.opening_voxels", "0", &Recipe::morphology, &surface::MorphologyParams::opening_voxels, 0,
-                    10),
-        {"repair.merge_tolerance_mm", "1.0e-6",
-         [](const YAML::Node& n, Recipe& r, const Where& w) { r.repair.merge_tolerance_mm = as_number(n, w, 0.0, 1.0); }},
-        {"repair.min_component_volume_mm3", "1.0",
-         [](const YAML::Node& n, Recipe& r, const Where& w) {
-             r.repair.min_component_volume_mm3 = as_number(n, w, 0.0, 1e12);
-         }},
-        {"repair.min_component_faces", "0",
-         [](const YAML::Node& n, Recipe& r, const Where& w) {
-             r.repair.min_component_faces = static_cast<std::size_t>(as_integer(n, w, 0, 1'000'000'000));
-         }},
-        {"repair.max_hole_edges", "200",
-         [](const YAML::Node& n, Recipe& r, const Where& w) {
-             r.repair.max_hole_edges = static_cast<std::size_t>(as_integer(n, w, 3, 1'000'000));
-         }},
-        {"repair.fill_holes", "true",
-         [](const YAML::Node& n, Recipe& r, const Where& w) { r.repair.fill_holes = as_bool(n, w); }},
-        {"repair.check_self_intersections", "true",
-         [](const YAML::Node& n, Recipe& r, const Where& w) { r.repair.check_self_intersections = as_bool(n, w); }},
-        {"repair.fail_on_self_intersections", "true",
-         [](const YAML::Node& n, Recipe& r, const Where& w) { r.repair.fail_on_self_intersections = as_bool(n, w); }},
-        number_key("remesh.edge_length", "0.0", &Recipe::remesh, &surface::RemeshParams::edge_length, 0.0, 1e4),
-        number_key("remesh.gradation", "1.3", &Recipe::remesh, &surface::RemeshParams::gradation, 1.0, 10.0),
-        number_key("remesh.min_edge_length", "0.0", &Recipe::remesh, &surface::RemeshParams::min_edge_length, 0.0, 1e4),
-        number_key("remesh.max_edge_length", "0.0", &Recipe::remesh, &surface::RemeshParams::max_edge_length, 0.0, 1e4),
-        number_key("remesh.curvature_angle_deg", "0.0", &Recipe::remesh, &surface::RemeshParams::curvature_angle_deg,
-                   0.0, 89.0),
-        integer_key("remesh.thickness_layers", "0", &Recipe::remesh, &surface::RemeshParams::thickness_layers, 0, 20),
-        number_key("remesh.feature_angle_deg", "0.0", &Recipe::remesh, &surface::RemeshParams::feature_angle_deg, 0.0,
-                   179.0),
-        {"remesh.label_edge_length", "{}",
-         [](const YAML::Node& n, Recipe& r, const Where& w) {
-             if (!n.IsMap()) w.fail("expected a mapping of label: edge length in mm, such as {3: 0.8}, got " + describe(n));
-             r.remesh.label_edge_length.clear();
-             for (const auto& entry : n) {
-                 const auto label = static_cast<core::Label>(as_integer(entry.first, w, 0, 2147483647));
-                 r.remesh.label_edge_length[label] = as_number(entry.second, w, 1e-6, 1e4);
-             }
-         }},
-        integer_key("remesh.smoothing_iterations", "5", &Recipe::remesh, &surface::RemeshParams::smoothing_iterations,
-                    0, 100),
-        number_key("remesh.flip_max_dihedral_deg", "10.0", &Recipe::remesh,
-                   &surface::RemeshParams::flip_max_dihedral_deg, 0.0, 90.0),
-        number_key("remesh.max_volume_change_percent", "0.0", &Recipe::remesh,
-                   &surface::RemeshParams::max_volume_change_percent, 0.0, 100.0),
-        bool_key("remesh.check_self_intersections", "true", &Recipe::remesh,
-                 &surface::RemeshParams::check_self_intersections),
-        number_key("tetra.stretching", "1.15", &Recipe::tetra, &volume::TetraParams::stretching, 1.0, 2.0, true),
-        integer_key("tetra.height_smoothing_iterations", "3", &Recipe::tetra,
-                    &volume::TetraParams::height_smoothing_iterations, 0, 100),
-        integer_key("tetra.max_remesh_per_node", "3", &Recipe::tetra, &volume::TetraParams::max_remesh_per_node, 0, 50),
-        number_key("tetra.min_angle_deg", "5.0", &Recipe::tetra, &volume::TetraParams::min_angle_deg, 0.0, 30.0),
-        integer_key("tetra.max_closing_rounds", "8", &Recipe::tetra, &volume::TetraParams::max_closing_rounds, 0, 100),
-        bool_key("refine.node_removal", "true", &Recipe::refine, &volume::RefineParams::node_removal),
-        integer_key("refine.node_removal_max_tets", "6", &Recipe::refine, &volume::RefineParams::node_removal_max_tets,
-                    4, 12),
-        integer_key("refine.passes", "3", &Recipe::refine, &volume::RefineParams::passes, 0, 20),
-        bool_key("refine.smoothing", "true", &Recipe::refine, &volume::RefineParams::smoothing),
-        integer_key("refine.smoothing_sweeps", "1", &Recipe::refine, &volume::RefineParams::smoothing_sweeps, 1, 10),
-        number_key("refine.smoothing_skewness", "0.0", &Recipe::refine, &volume::RefineParams::smoothing_skewness, 0.0,
-                   0.999),
-        number_key("refine.flip_skewness", "0.3", &Recipe::refine, &volume::RefineParams::flip_skewness, 0.0, 0.999),
-        integer_key("refine.flip_max_ring", "7", &Recipe::refine, &volume::RefineParams::flip_max_ring, 3, 10),
-        bool_key("refine.flip_delaunay_test", "true", &Recipe::refine, &volume::RefineParams::flip_delaunay_test),
-        integer_key("refine.flip_sweeps", "4", &Recipe::refine, &volume::RefineParams::flip_sweeps, 1, 20),
-        bool_key("refine.sliver_pass", "true", &Recipe::refine, &volume::RefineParams::sliver_pass),
-        number_key("refine.sliver_dihedral_deg", "20.0", &Recipe::refine, &volume::RefineParams::sliver_dihedral_deg,
-                   0.0, 70.5, true),
-        integer_key("refine.sliver_sweeps", "3", &Recipe::refine, &volume::RefineParams::sliver_sweeps, 1, 20),
-    };
-    return specs;
+         }});
+    specs.push_back({"input.threshold", "null", "", "intensity",
+                     "grayscale images: voxels above it become label 1",
+                     [=](const YAML::Node& n, Recipe& r, const Where& w) {
+                         r.input.threshold = as_number(n, w, threshold);
+                     }});
+    specs.push_back({"input.spacing", "null", spacing.text(), "mm",
+                     "voxel spacing [x, y, z]; slice stacks need it",
+                     [=](const YAML::Node& n, Recipe& r, const Where& w) {
+                         if (!n.IsSequence() || n.size() != 3)
+                             w.fail("expected three numbers [x, y, z] in mm, got " + describe(n));
+                         Eigen::Vector3d s;
+                         for (int i = 0; i < 3; ++i) s[i] = as_number(n[i], w, spacing);
+                         r.input.spacing = s;
+                     }});
+    specs.push_back({"input.label_names", "null", "", "",
+                     "label name table; null: the one beside the image",
+                     [](const YAML::Node& n, Recipe& r, const Where& w) {
+                         r.input.label_names = resolve_input_path(as_string(n, w), r.path);
+                     }});
 }
 
-// Stages named by the method whose sections a recipe may not use yet.
-const std::vector<std::pair<std::string, std::string>> kPlannedSections = {};
+void add_output_keys(std::vector<KeySpec>& specs) {
+    specs.push_back({"output.dir", "frontmesh-out", "", "",
+                     "folder of the checkpoints, summary, log and result",
+                     [](const YAML::Node& n, Recipe& r, const Where& w) {
+                         r.output.dir =
+                             fs::absolute(fs::path(as_string(n, w))).lexically_normal().string();
+                     }});
+    specs.push_back({"output.frame", "lps", "", "", "world frame of every mesh: lps or ras",
+                     [](const YAML::Node& n, Recipe& r, const Where& w) {
+                         r.output.frame = as_choice(n, w, {"lps", "ras"}) == "ras"
+                                              ? core::Frame::Ras
+                                              : core::Frame::Lps;
+                     }});
+    specs.push_back({"output.formats", "[vtu]", "", "",
+                     "files of the tet mesh: vtu, msh, msh22, mesh, inp, feb",
+                     [](const YAML::Node& n, Recipe& r, const Where& w) {
+                         if (!n.IsSequence() || n.size() == 0)
+                             w.fail("expected a list of formats such as [vtu, msh, inp], got " +
+                                    describe(n));
+                         r.output.formats.clear();
+                         for (std::size_t i = 0; i < n.size(); ++i) {
+                             const std::string f = as_choice(n[i], w, io::format_names());
+                             if (std::find(r.output.formats.begin(), r.output.formats.end(), f) !=
+                                 r.output.formats.end())
+                                 w.fail("format " + f + " is listed twice");
+                             r.output.formats.push_back(f);
+                         }
+                     }});
+    specs.push_back({"output.quality_report", "true", "", "",
+                     "report.html with quality histograms after refine",
+                     [](const YAML::Node& n, Recipe& r, const Where& w) {
+                         r.output.quality_report = as_bool(n, w);
+                     }});
+}
+
+// The stages' keys a table cannot set by itself.
+Apply extract_method() {
+    return [](const YAML::Node& n, Recipe& r, const Where& w) {
+        const std::vector<std::string> choices =
+            core::choice_list(core::find_spec(surface::extract_keys(), "extract.method")->choices);
+        const std::string m = as_choice(n, w, choices);
+        r.extract.method =
+            static_cast<surface::ExtractMethod>(std::find(choices.begin(), choices.end(), m) -
+                                                choices.begin());  // choices in enum order
+    };
+}
+
+Apply remesh_label_edge_length() {
+    return [](const YAML::Node& n, Recipe& r, const Where& w) {
+        if (!n.IsMap())
+            w.fail("expected a mapping of label: edge length in mm, such as {3: 0.8}, got " +
+                   describe(n));
+        const core::ParamRange& size =
+            core::find_spec(surface::remesh_keys(), "remesh.label_edge_length")->range;
+        r.remesh.label_edge_length.clear();
+        for (const auto& entry : n) {
+            const auto label =
+                static_cast<core::Label>(as_integer(entry.first, w, core::closed(0, INT32_MAX)));
+            r.remesh.label_edge_length[label] = as_number(entry.second, w, size);
+        }
+    };
+}
+
+// Every recipe key in documentation order: input, output, then the stages in pipeline order.
+const std::vector<KeySpec>& key_specs() {
+    static const std::vector<KeySpec> specs = [] {
+        std::vector<KeySpec> s;
+        add_input_keys(s);
+        add_output_keys(s);
+        add_stage_keys(s, &Recipe::extract, surface::extract_keys(),
+                       {{"extract.method", extract_method()}});
+        add_stage_keys(s, &Recipe::repair, surface::repair_keys());
+        add_stage_keys(s, &Recipe::remesh, surface::remesh_keys(),
+                       {{"remesh.label_edge_length", remesh_label_edge_length()}});
+        add_stage_keys(s, &Recipe::tetra, volume::tetra_keys());
+        add_stage_keys(s, &Recipe::refine, volume::refine_keys());
+        return s;
+    }();
+    return specs;
+}
 
 [[noreturn]] void unknown_key(const std::string& key, const std::string& origin) {
     std::string best;
@@ -309,11 +311,6 @@ void apply_key(const std::string& key, const YAML::Node& value, Recipe& recipe, 
             spec.apply(value, recipe, Where{origin, key});
             return;
         }
-    const std::string section = key.substr(0, key.find('.'));
-    for (const auto& [name, issue] : kPlannedSections)
-        if (section == name)
-            FM_THROW(InputError, origin + ": " + key + ": the " + name +
-                                     " stage is not available in this version of frontmesh yet (issue " + issue + ")");
     unknown_key(key, origin);
 }
 
@@ -406,9 +403,10 @@ Recipe load_recipe(const std::string& path, const std::vector<std::string>& over
     return recipe;
 }
 
-std::vector<std::pair<std::string, std::string>> recipe_keys() {
-    std::vector<std::pair<std::string, std::string>> keys;
-    for (const auto& spec : key_specs()) keys.emplace_back(spec.path, spec.default_yaml);
+std::vector<RecipeKey> recipe_keys() {
+    std::vector<RecipeKey> keys;
+    for (const auto& spec : key_specs())
+        keys.push_back({spec.path, spec.default_yaml, spec.range, spec.unit, spec.doc});
     return keys;
 }
 
@@ -425,8 +423,8 @@ std::string canonical_params(const Recipe& recipe, const std::string& section) {
         const auto& e = recipe.extract;
         s << "method=" << static_cast<int>(e.method) << ";blur=" << e.blur_sigma_mm
           << ";iterations=" << e.smoothing_iterations << ";relaxation=" << e.smoothing_relaxation
-          << ";cleanup=" << e.manifold_cleanup << ";closing=" << recipe.morphology.closing_voxels
-          << ";opening=" << recipe.morphology.opening_voxels;
+          << ";cleanup=" << e.manifold_cleanup << ";closing=" << e.closing_voxels
+          << ";opening=" << e.opening_voxels;
         for (auto l : e.labels) s << ";label=" << l;
     } else if (section == "repair") {
         const auto& p = recipe.repair;

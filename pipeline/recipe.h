@@ -9,7 +9,6 @@
 
 #include "pipeline/core/label_image.h"
 #include "surface/extract.h"
-#include "surface/morphology.h"
 #include "surface/remesh.h"
 #include "surface/repair.h"
 #include "volume/refine.h"
@@ -39,7 +38,6 @@ struct Recipe {
     InputSection input;
     OutputSection output;
     surface::ExtractParams extract;
-    surface::MorphologyParams morphology;  ///< extract.closing_voxels, extract.opening_voxels
     surface::RepairParams repair;
     surface::RemeshParams remesh;
     volume::TetraParams tetra;
@@ -52,9 +50,19 @@ struct Recipe {
 /// unknown keys (with a did-you-mean), wrong types, out-of-range values, missing files.
 Recipe load_recipe(const std::string& path, const std::vector<std::string>& overrides = {});
 
-/// Every recipe key with its default value as YAML text, in documentation order
-/// (used by `frontmesh --help` and checked against configs/reference.yaml by the tests).
-std::vector<std::pair<std::string, std::string>> recipe_keys();
+/// One recipe key as declared: by its stage (e.g. volume::tetra_keys()) or, for input.* and
+/// output.*, by the recipe reader.
+struct RecipeKey {
+    std::string key;           ///< "tetra.stretching"
+    std::string default_yaml;  ///< "1.15"
+    std::string range;         ///< "(1, 2]"; empty for texts, choices and switches
+    std::string unit;          ///< "mm", "deg", ...; empty: dimensionless or a count
+    std::string doc;           ///< one line
+};
+
+/// Every recipe key in documentation order (input, output, then the stages in pipeline
+/// order); `frontmesh keys` prints it and the tests check configs/reference.yaml against it.
+std::vector<RecipeKey> recipe_keys();
 
 /// Canonical text of a stage's parameters (the recipe section it reads), for stage hashes.
 std::string canonical_params(const Recipe& recipe, const std::string& section);

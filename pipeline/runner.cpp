@@ -3,53 +3,92 @@
 #include <sys/resource.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <chrono>
+#include <csignal>
 #include <cstdio>
 #include <ctime>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <mutex>
 #include <optional>
 #include <sstream>
 #include <variant>
 
 #include "io/atomic_file.h"
 #include "io/export.h"
-#include "io/label_table.h"
 #include "io/image_reader.h"
+#include "io/label_table.h"
 #include "io/mesh_io.h"
 #include "pipeline/core/error.h"
-#include "pipeline/version.h"
+#include "pipeline/diagnostics.h"
 #include "pipeline/quality_report.h"
 #include "pipeline/report.h"
+#include "pipeline/version.h"
+#include "surface/extract.h"
+#include "surface/remesh.h"
+#include "surface/repair.h"
 #include "volume/mesh_check.h"
 #include "volume/refine.h"
-#include "surface/morphology.h"
-#include "surface/remesh.h"
 #include "volume/tetra.h"
 
 namespace frontmesh::pipeline {
 namespace {
 
 namespace fs = std::filesystem;
-using StageData = std::variant<std::monostate, core::LabelImage, core::SurfaceNetwork, core::TetMesh>;
+using StageData =
+    std::variant<std::monostate, core::LabelImage, core::SurfaceNetwork, core::TetMesh>;
 
 // What a stage reads and writes; decides how checkpoints are read, written and reported.
 enum class Kind { Image, Surface, Tets };
 
+// What a stage function hands back: its result, and the extra per-point figures its
+// checkpoint carries.
+struct StageOutput {
+    StageData data;
+    io::PointArrays point_arrays;
+};
+
+StageOutput stage_output(core::SurfaceNetwork surface) { return {std::move(surface), {}}; }
+StageOutput stage_output(core::TetMesh mesh) { return {std::move(mesh), {}}; }
+StageOutput stage_output(surface::RemeshResult result) {
+    StageOutput out{std::move(result.surface), {}};
+    out.point_arrays["target_size"] = std::move(result.target_size);
+    return out;
+}
+
+// A stage function `Out stage(const In&, const Params&, StageContext&)` (STYLE §3) applied
+// to the input held in `data`.
+template <typename Out, typename In, typename Params>
+StageOutput call(Out (*stage)(const In&, const Params&, core::StageContext&), const StageData& data,
+                 const Params& params, core::StageContext& ctx) {
+    return stage_output(stage(std::get<In>(data), params, ctx));
+}
+
+// Runs `stage` with the parameters of the recipe section `section`.
+template <auto section, auto stage>
+StageOutput run_stage(const StageData& data, const Recipe& recipe, core::StageContext& ctx) {
+    return call(stage, data, recipe.*section, ctx);
+}
+
+// One stage of the method. `name` is also its recipe section, whose canonical text
+// (canonical_params) enters the stage hash.
 struct StageDef {
     std::string name;
     int number;  // NN of checkpoints/NN-name.vtu, fixed by the method's order
     Kind in, out;
+    StageOutput (*run)(const StageData&, const Recipe&, core::StageContext&);
 };
 
 const std::vector<StageDef>& stage_defs() {
     static const std::vector<StageDef> defs = {
-        {"extract", 1, Kind::Image, Kind::Surface},
-        {"repair", 2, Kind::Surface, Kind::Surface},
-        {"remesh", 3, Kind::Surface, Kind::Surface},
-        {"tetra", 4, Kind::Surface, Kind::Tets},
-        {"refine", 5, Kind::Tets, Kind::Tets},
+        // name    NN  reads          checkpoint     parameters, stage function
+        {"extract", 1, Kind::Image, Kind::Surface, &run_stage<&Recipe::extract, &surface::extract>},
+        {"repair", 2, Kind::Surface, Kind::Surface, &run_stage<&Recipe::repair, &surface::repair>},
+        {"remesh", 3, Kind::Surface, Kind::Surface, &run_stage<&Recipe::remesh, &surface::remesh>},
+        {"tetra", 4, Kind::Surface, Kind::Tets, &run_stage<&Recipe::tetra, &volume::tetra>},
+        {"refine", 5, Kind::Tets, Kind::Tets, &run_stage<&Recipe::refine, &volume::refine>},
     };
     return defs;
 }
@@ -82,7 +121,8 @@ std::string input_hash(const Recipe& recipe) {
     Hash h;
     h.add(std::string("frontmesh ") + version());
     h.add(canonical_params(recipe, "input"));
-    const std::string source = recipe.input.image.empty() ? recipe.input.surface : recipe.input.image;
+    const std::string source =
+        recipe.input.image.empty() ? recipe.input.surface : recipe.input.image;
     std::vector<fs::path> files;
     if (fs::is_directory(source)) {
         for (const auto& entry : fs::directory_iterator(source))
@@ -124,28 +164,37 @@ std::string read_text(const fs::path& path) {
 }
 
 // Log lines go to the terminal and to frontmesh.log; until the output folder exists they
-// are kept in memory, so a run that fails on bad input leaves no folder behind.
+// are kept in memory, so a run that fails on bad input leaves no folder behind. Stages log
+// from TBB threads (child contexts), hence the mutex.
 class Log {
 public:
     Log(bool quiet) : quiet_(quiet), tty_(isatty(STDERR_FILENO)) {}
 
     void open(const fs::path& file) {
+        const std::lock_guard lock(mutex_);
         file_.open(file, std::ios::app);
         for (const auto& line : pending_) file_ << line << '\n';
         pending_.clear();
         file_.flush();
     }
     void line(core::LogLevel level, const std::string& message) {
+        const std::lock_guard lock(mutex_);
         if (level == core::LogLevel::Debug) return write_file("DEBUG " + message);
         const bool warning = level == core::LogLevel::Warning;
         if (warning || !quiet_) {
-            clear_progress();
+            clear_progress_locked();
             std::cerr << (warning ? "warning: " : "") << message << '\n';
         }
         write_file((level == core::LogLevel::Warning ? "WARN  " : "INFO  ") + message);
     }
+    /// A line for frontmesh.log only (the terminal gets its own line from the CLI).
+    void note(const std::string& message) {
+        const std::lock_guard lock(mutex_);
+        write_file("INFO  " + message);
+    }
     void progress(const std::string& stage, double fraction, const std::string& what) {
         if (quiet_) return;
+        const std::lock_guard lock(mutex_);
         const int percent = static_cast<int>(fraction * 100.0 + 0.5);
         char buf[200];
         std::snprintf(buf, sizeof buf, "  %-8s %3d%%  %s", stage.c_str(), percent, what.c_str());
@@ -158,11 +207,15 @@ public:
         last_what_ = what;
     }
     void clear_progress() {
-        if (progress_shown_) std::cerr << "\r\033[K" << std::flush;
-        progress_shown_ = false;
+        const std::lock_guard lock(mutex_);
+        clear_progress_locked();
     }
 
 private:
+    void clear_progress_locked() {
+        if (progress_shown_) std::cerr << "\r\033[K" << std::flush;
+        progress_shown_ = false;
+    }
     void write_file(const std::string& text) {
         std::string stamped(1, '[');
         stamped.append(now_text()).append("] ").append(text);
@@ -173,6 +226,7 @@ private:
             pending_.push_back(stamped);
         }
     }
+    std::mutex mutex_;
     bool quiet_, tty_;
     bool progress_shown_ = false;
     std::string last_what_;
@@ -190,11 +244,447 @@ struct Outputs {
     fs::path with_ext(const StageDef& s, const std::string& ext) const {
         return checkpoint(s).replace_extension(ext);
     }
+    fs::path diagnostics() const { return dir / "diagnostics"; }
 };
 
 StageData read_checkpoint(const fs::path& path, Kind kind) {
     if (kind == Kind::Tets) return io::read_tet_mesh(path.string());
     return io::read_surface(path.string());
+}
+
+// Set by SIGINT/SIGTERM while a run has its handlers installed; read by the stages through
+// their StageContext. Lock-free, so the handler may store to it.
+std::atomic<bool> stop_requested{false};
+static_assert(std::atomic<bool>::is_always_lock_free);
+
+extern "C" void request_stop(int) { stop_requested.store(true); }
+
+// SIGINT and SIGTERM ask the run to stop for as long as this lives; the previous handlers
+// come back after it. SA_RESTART: a blocking read goes on after the signal. SA_RESETHAND: a
+// second Ctrl-C ends the process at once.
+class StopSignals {
+public:
+    StopSignals() {
+        stop_requested.store(false);
+        struct sigaction action = {};
+        action.sa_handler = request_stop;
+        sigemptyset(&action.sa_mask);
+        action.sa_flags = SA_RESTART | SA_RESETHAND;
+        sigaction(SIGINT, &action, &previous_int_);
+        sigaction(SIGTERM, &action, &previous_term_);
+    }
+    ~StopSignals() {
+        sigaction(SIGINT, &previous_int_, nullptr);
+        sigaction(SIGTERM, &previous_term_, nullptr);
+    }
+    StopSignals(const StopSignals&) = delete;
+    StopSignals& operator=(const StopSignals&) = delete;
+
+private:
+    struct sigaction previous_int_ = {}, previous_term_ = {};
+};
+
+// Quality figures of a checkpoint: JSON for summary.json, one line for the log.
+struct Quality {
+    std::string json, line;
+};
+
+// One run of a recipe, step by step: plan which stages run, read their input, run each,
+// write the result files and the summary.
+class Run {
+public:
+    Run(const Recipe& recipe, const RunOptions& options, const std::atomic<bool>* cancel)
+        : recipe_(recipe),
+          options_(options),
+          cancel_(cancel),
+          stages_(stage_defs()),
+          log_(options.quiet),
+          out_{recipe.output.dir},
+          frame_(core::frame_name(recipe.output.frame)),
+          diagnostics_(out_.diagnostics(),
+                       [this](core::LogLevel level, const std::string& m) { log_.line(level, m); },
+                       {{"frame", frame_}, {"frontmesh_version", version()}}) {}
+
+    std::string execute() {
+        plan_stages();
+        read_label_names();
+        chain_hashes();
+        skip_up_to_date_stages();
+        check_cancelled("before reading the input");
+        read_input();
+        if (first_ > last_)
+            info("every stage up to " + stages_[last_].name + " is up to date; nothing to run");
+        mark_reused_stages();
+        for (int i = first_; i <= last_; ++i) run_one(i);
+        return write_results();
+    }
+
+private:
+    void info(const std::string& m) { log_.line(core::LogLevel::Info, m); }
+    int index_of(const std::string& name, const char* flag) const;
+    void plan_stages();
+    void read_label_names();
+    void chain_hashes();
+    void skip_up_to_date_stages();
+    void check_cancelled(const std::string& when);
+    [[noreturn]] void stop(const std::string& when);
+    void read_input();
+    void prepare_folder();
+    void mark_reused_stages();
+    void run_one(int i);
+    StageOutput call_stage(int i, core::StageContext& ctx);
+    Quality write_checkpoint(int i, const StageOutput& output, core::StageContext& ctx);
+    void write_stage_summary(int i, const core::StageContext& ctx, double wall,
+                             const Quality& quality);
+    std::string write_results();
+    void write_exports(const fs::path& result, const fs::path& last_checkpoint, bool ran_any);
+    void write_pvd();
+    void write_summary(const std::string& status, const std::string& error);
+
+    const Recipe& recipe_;
+    const RunOptions& options_;
+    const std::atomic<bool>* cancel_;
+    const std::vector<StageDef>& stages_;
+    const std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();
+    Log log_;
+    const Outputs out_;
+    const std::string frame_;
+    DiagnosticsWriter diagnostics_;
+    io::LabelTable names_;
+    bool surface_input_ = false;
+    int entry_ = 0, first_ = 0, last_ = 0;
+    std::vector<std::string> hashes_;
+    StageData data_;  // the input of the next stage to run, then the last stage's result
+    bool folder_ready_ = false;
+    std::optional<QualityHistograms> tetra_histograms_;  // kept for the quality report
+    std::vector<core::TetFigures> figures_;              // of the last tet mesh a stage made
+};
+
+int Run::index_of(const std::string& name, const char* flag) const {
+    for (std::size_t i = 0; i < stages_.size(); ++i)
+        if (stages_[i].name == name) return static_cast<int>(i);
+    std::string list;
+    for (const auto& s : stages_) list += (list.empty() ? "" : ", ") + s.name;
+    FM_THROW(InputError, std::string(flag) + " " + name + ": unknown stage; stages: " + list);
+}
+
+// A surface input enters at repair, or at the stage --from names (e.g. --from tetra meshes
+// the surface as it is); an image enters at extract. --from a stage that needs a tet mesh
+// (refine) enters the surface at the last stage before it that takes one (tetra) and reads
+// that stage's checkpoint, as a run from the image would.
+void Run::plan_stages() {
+    surface_input_ = !recipe_.input.surface.empty();
+    last_ = options_.until.empty() ? static_cast<int>(stages_.size()) - 1
+                                   : index_of(options_.until, "--until");
+    first_ = options_.from.empty() ? -1 : index_of(options_.from, "--from");
+    entry_ = !surface_input_ ? 0 : first_ >= 0 ? first_ : index_of("repair", "input.surface");
+    if (surface_input_ && stages_[entry_].in == Kind::Tets)
+        while (entry_ > 0 && stages_[entry_].in != Kind::Surface) --entry_;
+    if (surface_input_ && stages_[entry_].in != Kind::Surface)
+        FM_THROW(InputError, "--from " + options_.from +
+                                 ": input.surface is a triangle surface; the " +
+                                 stages_[entry_].name + " stage needs an image");
+    if (first_ > last_)
+        FM_THROW(InputError, "--from " + options_.from + " comes after --until " + options_.until);
+}
+
+// Region names for the exports: the recipe's table, else the one beside the image. Read
+// before any work so a bad table fails fast.
+void Run::read_label_names() {
+    std::string table = recipe_.input.label_names;
+    if (table.empty() && !recipe_.input.image.empty())
+        table = io::label_table_beside(recipe_.input.image);
+    if (!table.empty()) names_ = io::read_label_table(table);
+}
+
+// Stage hashes chain the input's bytes and every earlier stage's parameters.
+void Run::chain_hashes() {
+    hashes_.assign(stages_.size(), {});
+    std::string previous = input_hash(recipe_);
+    for (int i = entry_; i < static_cast<int>(stages_.size()); ++i) {
+        Hash h;
+        h.add(previous);
+        h.add(stages_[i].name);
+        h.add(canonical_params(recipe_, stages_[i].name));
+        hashes_[i] = previous = h.hex();
+    }
+}
+
+// Without --from the run starts at the first stage whose checkpoint is missing or stale;
+// with --from the previous stage's checkpoint must exist.
+void Run::skip_up_to_date_stages() {
+    auto is_up_to_date = [&](int i) {
+        return fs::exists(out_.checkpoint(stages_[i])) &&
+               fs::exists(out_.with_ext(stages_[i], ".hash")) &&
+               read_text(out_.with_ext(stages_[i], ".hash")) == hashes_[i] + "\n";
+    };
+    if (first_ < 0) {
+        first_ = entry_;
+        while (!options_.force && first_ <= last_ && is_up_to_date(first_)) ++first_;
+    } else if (first_ > entry_ && !fs::exists(out_.checkpoint(stages_[first_ - 1]))) {
+        FM_THROW(InputError, "--from " + options_.from + ": checkpoint '" +
+                                 out_.checkpoint(stages_[first_ - 1]).string() +
+                                 "' does not exist; run the earlier stages first");
+    }
+}
+
+// Between steps: a stop asked for (Ctrl-C, SIGTERM) ends the run here, with the summary
+// saying so. Nothing is half-written: every file is written atomically.
+void Run::check_cancelled(const std::string& when) {
+    if (cancel_->load()) stop(when);
+}
+
+void Run::stop(const std::string& when) {
+    log_.clear_progress();
+    prepare_folder();
+    log_.note("interrupted " + when);
+    write_summary("interrupted", "interrupted " + when);
+    FM_THROW(CancelledError,
+             "interrupted " + when +
+                 "; the checkpoints of finished stages are kept, a new run goes on from them");
+}
+
+// Input of the first stage to run: the image, the surface, or the previous checkpoint.
+void Run::read_input() {
+    if (first_ > last_) return;
+    if (first_ == entry_ && !surface_input_) {
+        io::ImageReadOptions read;
+        read.threshold = recipe_.input.threshold;
+        read.spacing = recipe_.input.spacing;
+        read.frame = recipe_.output.frame;
+        info("reading image " + recipe_.input.image);
+        data_ = io::read_label_image(recipe_.input.image, read);
+        const auto& image = std::get<core::LabelImage>(data_);
+        char buf[200];
+        std::snprintf(buf, sizeof buf,
+                      "image %d x %d x %d voxels (padded), spacing %.3g x %.3g x %.3g mm, frame %s",
+                      image.dims[0], image.dims[1], image.dims[2], image.spacing.x(),
+                      image.spacing.y(), image.spacing.z(), frame_.c_str());
+        info(buf);
+    } else if (first_ == entry_) {
+        info("reading surface " + recipe_.input.surface);
+        data_ = io::read_surface(recipe_.input.surface);
+    } else {
+        info("reading checkpoint " + out_.checkpoint(stages_[first_ - 1]).string());
+        data_ = read_checkpoint(out_.checkpoint(stages_[first_ - 1]), stages_[first_ - 1].out);
+    }
+}
+
+void Run::prepare_folder() {
+    if (folder_ready_) return;
+    fs::create_directories(out_.dir / "checkpoints");
+    log_.open(out_.dir / "frontmesh.log");
+    folder_ready_ = true;
+}
+
+// Reused stages keep their summary entry, marked skipped.
+void Run::mark_reused_stages() {
+    for (int i = entry_; i < first_ && i <= last_; ++i) {
+        if (!fs::exists(out_.with_ext(stages_[i], ".json"))) continue;
+        std::string part = read_text(out_.with_ext(stages_[i], ".json"));
+        const std::string ran = "\"status\": \"ran\"";
+        if (const auto at = part.find(ran); at != std::string::npos)
+            part.replace(at, ran.size(), "\"status\": \"skipped\"");
+        prepare_folder();
+        io::write_text_atomically(out_.with_ext(stages_[i], ".json").string(), part);
+    }
+}
+
+void Run::run_one(int i) {
+    const StageDef& stage = stages_[i];
+    check_cancelled("before " + stage.name);
+    core::StageContext ctx(
+        [&](double fraction, const std::string& what) {
+            log_.progress(stage.name, fraction, what);
+        },
+        [&](core::LogLevel level, const std::string& m) { log_.line(level, m); },
+        diagnostics_.sink(), cancel_);
+    std::string heading(1, '[');
+    heading.append(std::to_string(i + 1))
+        .append("/")
+        .append(std::to_string(last_ + 1))
+        .append("] ");
+    info(heading + stage.name);
+    diagnostics_.start(stage.name);
+    std::vector<core::TetFigures>().swap(figures_);  // the last stage's: not held while this runs
+    const auto t0 = std::chrono::steady_clock::now();
+    StageOutput output = call_stage(i, ctx);
+    log_.clear_progress();
+    const double wall =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    data_ = std::move(output.data);
+    prepare_folder();
+    const Quality quality = write_checkpoint(i, output, ctx);
+    write_stage_summary(i, ctx, wall, quality);
+}
+
+// Runs stage i on data_. A failure is logged and recorded in summary.json before it goes
+// on to the caller; bad input is not (nothing is written for it).
+StageOutput Run::call_stage(int i, core::StageContext& ctx) {
+    const StageDef& stage = stages_[i];
+    try {
+        ctx.check_cancelled();
+        return stage.run(data_, recipe_, ctx);
+    } catch (const core::InputError&) {
+        log_.clear_progress();
+        throw;
+    } catch (const core::CancelledError&) {
+        fs::remove(out_.with_ext(stage, ".json"));
+        stop("during " + stage.name);
+    } catch (const core::Error& e) {
+        log_.clear_progress();
+        prepare_folder();
+        log_.line(core::LogLevel::Warning,
+                  stage.name + " failed: " + e.what() + " [" + e.where() + "]");
+        fs::remove(out_.with_ext(stage, ".json"));
+        write_summary("failed", stage.name + ": " + e.what());
+        throw;
+    }
+}
+
+// Writes stage i's checkpoint from data_; returns its quality figures.
+Quality Run::write_checkpoint(int i, const StageOutput& output, core::StageContext& ctx) {
+    const StageDef& stage = stages_[i];
+    const io::FieldStrings fields = {
+        {"frame", frame_}, {"stage", stage.name}, {"frontmesh_version", version()}};
+    if (stage.out == Kind::Tets) {
+        const auto& mesh = std::get<core::TetMesh>(data_);
+        // Skewness and dihedral angles of every tet, once: the checkpoint's cell arrays,
+        // the report below and the histograms of report.html all read them.
+        figures_ = volume::tet_figures(mesh);
+        io::write_tet_mesh_vtu(mesh, out_.checkpoint(stage).string(), fields, &figures_);
+        if (stage.name == "tetra" && stages_[last_].name == "refine" &&
+            recipe_.output.quality_report)
+            tetra_histograms_ =
+                quality_histograms(mesh, &figures_);  // "before refine" in report.html
+        const TetReport report = tet_report(mesh, &figures_);
+        if (!report.valid) ctx.warn(stage.name + " produced an invalid mesh: " + report.line);
+        return {report.json, report.line};
+    }
+    const auto& surface = std::get<core::SurfaceNetwork>(data_);
+    io::write_surface_vtu(surface, out_.checkpoint(stage).string(), fields, output.point_arrays);
+    const SurfaceReport report = surface_report(surface);
+    return {report.json, report.line};
+}
+
+// checkpoints/NN-STAGE.json (the stage's entry of summary.json) and .hash, and the log line.
+void Run::write_stage_summary(int i, const core::StageContext& ctx, double wall,
+                              const Quality& quality) {
+    const StageDef& stage = stages_[i];
+    std::ostringstream part;
+    part << "{\"name\": " << json_quote(stage.name)
+         << ", \"status\": \"ran\", \"wall_s\": " << json_number(wall)
+         << ", \"peak_rss_mb\": " << json_number(peak_rss_mb()) << ", \"checkpoint\": "
+         << json_quote(fs::relative(out_.checkpoint(stage), out_.dir).string())
+         << ", \"hash\": " << json_quote(hashes_[i]) << ",\n     \"counters\": {";
+    bool any = false;
+    for (const auto& [name, value] : ctx.counters()) {
+        part << (any ? ", " : "") << json_quote(name) << ": " << json_number(value);
+        any = true;
+    }
+    part << "},\n     \"warnings\": [";
+    for (std::size_t w = 0; w < ctx.warnings().size(); ++w)
+        part << (w ? ", " : "") << json_quote(ctx.warnings()[w]);
+    part << "],\n     \"quality\": " << quality.json << "}";
+    io::write_text_atomically(out_.with_ext(stage, ".json").string(), part.str());
+    io::write_text_atomically(out_.with_ext(stage, ".hash").string(), hashes_[i] + "\n");
+    char buf[120];
+    std::snprintf(buf, sizeof buf, "%s done in %.2f s, peak memory %.0f MB: ", stage.name.c_str(),
+                  wall, peak_rss_mb());
+    info(buf + quality.line);
+}
+
+// The final result: mesh.vtu for a tetrahedral mesh (a copy of the last checkpoint, or
+// written again with the region names) plus the other formats asked for, and the
+// quality report after refine; surface.vtu, a copy of the last checkpoint, for a surface.
+// When every stage was up to date, only missing result files are written.
+std::string Run::write_results() {
+    check_cancelled("before writing the result");
+    prepare_folder();
+    const bool ran_any = first_ <= last_;
+    const fs::path last_checkpoint = out_.checkpoint(stages_[last_]);
+    const bool tet_result = stages_[last_].out == Kind::Tets;
+    const fs::path result = out_.dir / (tet_result ? "mesh.vtu" : "surface.vtu");
+    if ((!tet_result || names_.empty()) && (ran_any || !fs::exists(result)))
+        io::write_atomically(result.string(), [&](const std::string& temp) {
+            fs::copy_file(last_checkpoint, temp, fs::copy_options::overwrite_existing);
+        });
+    if (tet_result) write_exports(result, last_checkpoint, ran_any);
+    write_pvd();
+    write_summary("ok", "");
+    return result.string();
+}
+
+void Run::write_exports(const fs::path& result, const fs::path& last_checkpoint, bool ran_any) {
+    auto wanted = [&](const fs::path& file) { return ran_any || !fs::exists(file); };
+    std::vector<std::pair<fs::path, io::MeshFormat>> exports;
+    if (!names_.empty() && wanted(result)) exports.emplace_back(result, io::MeshFormat::Vtu);
+    for (const std::string& name : recipe_.output.formats) {
+        const io::MeshFormat format = io::format_from_name(name);
+        const fs::path file = out_.dir / io::export_file_name(format);
+        if (format != io::MeshFormat::Vtu && wanted(file)) exports.emplace_back(file, format);
+    }
+    const bool report = recipe_.output.quality_report && stages_[last_].name == "refine" &&
+                        wanted(out_.dir / "report.html");
+    if (exports.empty() && !report) return;
+    const core::TetMesh mesh = std::holds_alternative<core::TetMesh>(data_)
+                                   ? std::get<core::TetMesh>(std::move(data_))
+                                   : io::read_tet_mesh(last_checkpoint.string());
+    const io::FieldStrings fields = {
+        {"frame", frame_}, {"stage", stages_[last_].name}, {"frontmesh_version", version()}};
+    for (const auto& [file, format] : exports) {
+        io::write_mesh(mesh, file.string(), format, names_, fields);
+        info("wrote " + file.string());
+    }
+    if (report) {
+        // The tetra histograms of this run, else those of its checkpoint (--from refine).
+        const fs::path tetra_checkpoint =
+            out_.checkpoint(stages_[static_cast<std::size_t>(last_) - 1]);
+        if (!tetra_histograms_ && fs::exists(tetra_checkpoint))
+            tetra_histograms_ = quality_histograms(io::read_tet_mesh(tetra_checkpoint.string()));
+        write_quality_report(out_.dir.string(), mesh,
+                             tetra_histograms_ ? &*tetra_histograms_ : nullptr, recipe_.path,
+                             figures_.size() == mesh.tet_count() && ran_any ? &figures_ : nullptr);
+        info("wrote " + (out_.dir / "report.html").string());
+    }
+}
+
+void Run::write_pvd() {
+    std::vector<std::pair<std::string, std::string>> entries;
+    for (int i = entry_; i < static_cast<int>(stages_.size()); ++i)
+        if (fs::exists(out_.checkpoint(stages_[i])))
+            entries.emplace_back(fs::relative(out_.checkpoint(stages_[i]), out_.dir).string(),
+                                 stages_[i].name);
+    io::write_pvd((out_.dir / "run.pvd").string(), entries);
+}
+
+void Run::write_summary(const std::string& status, const std::string& error) {
+    std::ostringstream s;
+    s << "{\n  \"frontmesh_version\": " << json_quote(version())
+      << ",\n  \"recipe\": " << json_quote(recipe_.path) << ",\n  \"input\": "
+      << json_quote(surface_input_ ? recipe_.input.surface : recipe_.input.image)
+      << ",\n  \"frame\": " << json_quote(frame_) << ",\n  \"status\": " << json_quote(status)
+      << ",\n  \"error\": " << (error.empty() ? "null" : json_quote(error)) << ",\n  \"stages\": [";
+    bool any = false;
+    for (int i = entry_; i <= last_; ++i) {
+        const fs::path part = out_.with_ext(stages_[i], ".json");
+        if (!fs::exists(part)) continue;
+        s << (any ? ",\n    " : "\n    ") << read_text(part);
+        any = true;
+    }
+    s << "\n  ],\n  \"diagnostics\": [";
+    any = false;
+    for (int i = entry_; i <= last_; ++i)
+        for (const fs::path& file :
+             DiagnosticsWriter::files_of(out_.diagnostics(), stages_[i].name)) {
+            s << (any ? ", " : "") << json_quote(fs::relative(file, out_.dir).string());
+            any = true;
+        }
+    s << "],\n  \"total_wall_s\": "
+      << json_number(
+             std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count())
+      << "\n}\n";
+    io::write_text_atomically((out_.dir / "summary.json").string(), s.str());
 }
 
 }  // namespace
@@ -209,284 +699,9 @@ const std::vector<std::string>& stage_names() {
 }
 
 std::string run_recipe(const Recipe& recipe, const RunOptions& options) {
-    const auto& stages = stage_defs();
-    const auto run_start = std::chrono::steady_clock::now();
-    Log log(options.quiet);
-    auto info = [&](const std::string& m) { log.line(core::LogLevel::Info, m); };
-    auto index_of = [&](const std::string& name, const char* flag) {
-        for (std::size_t i = 0; i < stages.size(); ++i)
-            if (stages[i].name == name) return static_cast<int>(i);
-        std::string list;
-        for (const auto& s : stages) list += (list.empty() ? "" : ", ") + s.name;
-        FM_THROW(InputError, std::string(flag) + " " + name + ": unknown stage; stages: " + list);
-    };
-
-    // A surface input enters at repair, or at the stage --from names (e.g. --from tetra meshes
-    // the surface as it is); an image enters at extract. --from a stage that needs a tet mesh
-    // (refine) enters the surface at the last stage before it that takes one (tetra) and reads
-    // that stage's checkpoint, as a run from the image would.
-    const bool surface_input = !recipe.input.surface.empty();
-    const int last = options.until.empty() ? static_cast<int>(stages.size()) - 1 : index_of(options.until, "--until");
-    int first = options.from.empty() ? -1 : index_of(options.from, "--from");
-    int entry = !surface_input ? 0 : first >= 0 ? first : index_of("repair", "input.surface");
-    if (surface_input && stages[entry].in == Kind::Tets)
-        while (entry > 0 && stages[entry].in != Kind::Surface) --entry;
-    if (surface_input && stages[entry].in != Kind::Surface)
-        FM_THROW(InputError, "--from " + options.from + ": input.surface is a triangle surface; the " +
-                                 stages[entry].name + " stage needs an image");
-    if (first > last) FM_THROW(InputError, "--from " + options.from + " comes after --until " + options.until);
-
-    // Region names for the exports: the recipe's table, else the one beside the image. Read
-    // before any work so a bad table fails fast.
-    io::LabelTable names;
-    {
-        std::string table = recipe.input.label_names;
-        if (table.empty() && !recipe.input.image.empty()) table = io::label_table_beside(recipe.input.image);
-        if (!table.empty()) names = io::read_label_table(table);
-    }
-
-    const Outputs out{recipe.output.dir};
-    const std::string frame = core::frame_name(recipe.output.frame);
-
-    // Stage hashes chain the input's bytes and every earlier stage's parameters.
-    std::vector<std::string> hashes(stages.size());
-    {
-        std::string previous = input_hash(recipe);
-        for (int i = entry; i < static_cast<int>(stages.size()); ++i) {
-            Hash h;
-            h.add(previous);
-            h.add(stages[i].name);
-            h.add(canonical_params(recipe, stages[i].name));
-            hashes[i] = previous = h.hex();
-        }
-    }
-    auto is_up_to_date = [&](int i) {
-        return fs::exists(out.checkpoint(stages[i])) && fs::exists(out.with_ext(stages[i], ".hash")) &&
-               read_text(out.with_ext(stages[i], ".hash")) == hashes[i] + "\n";
-    };
-    if (first < 0) {
-        first = entry;
-        while (!options.force && first <= last && is_up_to_date(first)) ++first;
-    } else if (first > entry && !fs::exists(out.checkpoint(stages[first - 1]))) {
-        FM_THROW(InputError, "--from " + options.from + ": checkpoint '" + out.checkpoint(stages[first - 1]).string() +
-                                 "' does not exist; run the earlier stages first");
-    }
-
-    // Input of the first stage to run: the image, the surface, or the previous checkpoint.
-    StageData data;
-    if (first <= last) {
-        if (first == entry && !surface_input) {
-            io::ImageReadOptions read;
-            read.threshold = recipe.input.threshold;
-            read.spacing = recipe.input.spacing;
-            read.frame = recipe.output.frame;
-            info("reading image " + recipe.input.image);
-            data = io::read_label_image(recipe.input.image, read);
-            const auto& image = std::get<core::LabelImage>(data);
-            char buf[200];
-            std::snprintf(buf, sizeof buf, "image %d x %d x %d voxels (padded), spacing %.3g x %.3g x %.3g mm, frame %s",
-                          image.dims[0], image.dims[1], image.dims[2], image.spacing.x(), image.spacing.y(),
-                          image.spacing.z(), frame.c_str());
-            info(buf);
-        } else if (first == entry) {
-            info("reading surface " + recipe.input.surface);
-            data = io::read_surface(recipe.input.surface);
-        } else {
-            info("reading checkpoint " + out.checkpoint(stages[first - 1]).string());
-            data = read_checkpoint(out.checkpoint(stages[first - 1]), stages[first - 1].out);
-        }
-    }
-
-    bool folder_ready = false;
-    auto prepare_folder = [&] {
-        if (folder_ready) return;
-        fs::create_directories(out.dir / "checkpoints");
-        log.open(out.dir / "frontmesh.log");
-        folder_ready = true;
-    };
-    auto write_summary = [&](const std::string& status, const std::string& error) {
-        std::ostringstream s;
-        s << "{\n  \"frontmesh_version\": " << json_quote(version()) << ",\n  \"recipe\": "
-          << json_quote(recipe.path) << ",\n  \"input\": "
-          << json_quote(surface_input ? recipe.input.surface : recipe.input.image) << ",\n  \"frame\": "
-          << json_quote(frame) << ",\n  \"status\": " << json_quote(status) << ",\n  \"error\": "
-          << (error.empty() ? "null" : json_quote(error)) << ",\n  \"stages\": [";
-        bool any = false;
-        for (int i = entry; i <= last; ++i) {
-            const fs::path part = out.with_ext(stages[i], ".json");
-            if (!fs::exists(part)) continue;
-            s << (any ? ",\n    " : "\n    ") << read_text(part);
-            any = true;
-        }
-        s << "\n  ],\n  \"total_wall_s\": "
-          << json_number(std::chrono::duration<double>(std::chrono::steady_clock::now() - run_start).count())
-          << "\n}\n";
-        io::write_text_atomically((out.dir / "summary.json").string(), s.str());
-    };
-    auto write_pvd = [&] {
-        std::vector<std::pair<std::string, std::string>> entries;
-        for (int i = entry; i < static_cast<int>(stages.size()); ++i)
-            if (fs::exists(out.checkpoint(stages[i])))
-                entries.emplace_back(fs::relative(out.checkpoint(stages[i]), out.dir).string(), stages[i].name);
-        io::write_pvd((out.dir / "run.pvd").string(), entries);
-    };
-
-    if (first > last) info("every stage up to " + stages[last].name + " is up to date; nothing to run");
-    for (int i = entry; i < first && i <= last; ++i) {
-        if (!fs::exists(out.with_ext(stages[i], ".json"))) continue;
-        // Mark the reused stage as skipped in its summary entry.
-        std::string part = read_text(out.with_ext(stages[i], ".json"));
-        const std::string ran = "\"status\": \"ran\"";
-        if (const auto at = part.find(ran); at != std::string::npos) part.replace(at, ran.size(), "\"status\": \"skipped\"");
-        prepare_folder();
-        io::write_text_atomically(out.with_ext(stages[i], ".json").string(), part);
-    }
-
-    std::optional<QualityHistograms> tetra_histograms;  // kept for the quality report
-    std::vector<core::TetFigures> figures;              // of the last tet mesh a stage made
-    for (int i = first; i <= last; ++i) {
-        const StageDef& stage = stages[i];
-        core::StageContext ctx(
-            [&](double fraction, const std::string& what) { log.progress(stage.name, fraction, what); },
-            [&](core::LogLevel level, const std::string& m) { log.line(level, m); });
-        std::string heading(1, '[');
-        heading.append(std::to_string(i + 1)).append("/").append(std::to_string(last + 1)).append("] ");
-        info(heading + stage.name);
-        std::vector<core::TetFigures>().swap(figures);  // the last stage's: not held while this runs
-        const auto t0 = std::chrono::steady_clock::now();
-        io::PointArrays point_arrays;  // extra per-point figures of the checkpoint
-        try {
-            if (stage.name == "extract") {
-                auto& image = std::get<core::LabelImage>(data);
-                if (recipe.morphology.closing_voxels > 0) {
-                    const std::size_t n = surface::close_object(image, recipe.morphology.closing_voxels);
-                    ctx.count("extract.closing_filled_voxels", double(n));
-                    ctx.info("extract: closing of " + std::to_string(recipe.morphology.closing_voxels) +
-                             " voxel(s) filled " + std::to_string(n) + " voxels");
-                }
-                if (recipe.morphology.opening_voxels > 0) {
-                    const std::size_t n = surface::open_object(image, recipe.morphology.opening_voxels);
-                    ctx.count("extract.opening_removed_voxels", double(n));
-                    ctx.info("extract: opening of " + std::to_string(recipe.morphology.opening_voxels) +
-                             " voxel(s) removed " + std::to_string(n) + " voxels");
-                }
-                data = surface::extract(image, recipe.extract, ctx);
-            } else if (stage.name == "repair") {
-                data = surface::repair(std::get<core::SurfaceNetwork>(data), recipe.repair, ctx);
-            } else if (stage.name == "remesh") {
-                surface::RemeshResult r = surface::remesh(std::get<core::SurfaceNetwork>(data), recipe.remesh, ctx);
-                point_arrays["target_size"] = std::move(r.target_size);
-                data = std::move(r.surface);
-            } else if (stage.name == "tetra") {
-                data = volume::tetra(std::get<core::SurfaceNetwork>(data), recipe.tetra, ctx);
-            } else if (stage.name == "refine") {
-                data = volume::refine(std::get<core::TetMesh>(data), recipe.refine, ctx);
-            }
-        } catch (const core::InputError&) {
-            log.clear_progress();
-            throw;
-        } catch (const core::Error& e) {
-            log.clear_progress();
-            prepare_folder();
-            log.line(core::LogLevel::Warning, stage.name + " failed: " + e.what() + " [" + e.where() + "]");
-            fs::remove(out.with_ext(stage, ".json"));
-            write_summary("failed", stage.name + ": " + e.what());
-            throw;
-        }
-        log.clear_progress();
-        const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-
-        prepare_folder();
-        const io::FieldStrings fields = {{"frame", frame}, {"stage", stage.name}, {"frontmesh_version", version()}};
-        std::string report_json, report_line;
-        if (stage.out == Kind::Tets) {
-            const auto& mesh = std::get<core::TetMesh>(data);
-            // Skewness and dihedral angles of every tet, once: the checkpoint's cell arrays,
-            // the report below and the histograms of report.html all read them.
-            figures = volume::tet_figures(mesh);
-            io::write_tet_mesh_vtu(mesh, out.checkpoint(stage).string(), fields, &figures);
-            if (stage.name == "tetra" && stages[last].name == "refine" && recipe.output.quality_report)
-                tetra_histograms = quality_histograms(mesh, &figures);  // "before refine" in report.html
-            const TetReport report = tet_report(mesh, &figures);
-            report_json = report.json;
-            report_line = report.line;
-            if (!report.valid) ctx.warn(stage.name + " produced an invalid mesh: " + report.line);
-        } else {
-            const auto& surface = std::get<core::SurfaceNetwork>(data);
-            io::write_surface_vtu(surface, out.checkpoint(stage).string(), fields, point_arrays);
-            const SurfaceReport report = surface_report(surface);
-            report_json = report.json;
-            report_line = report.line;
-        }
-        std::ostringstream part;
-        part << "{\"name\": " << json_quote(stage.name) << ", \"status\": \"ran\", \"wall_s\": " << json_number(wall)
-             << ", \"peak_rss_mb\": " << json_number(peak_rss_mb()) << ", \"checkpoint\": "
-             << json_quote(fs::relative(out.checkpoint(stage), out.dir).string()) << ", \"hash\": "
-             << json_quote(hashes[i]) << ",\n     \"counters\": {";
-        bool any = false;
-        for (const auto& [name, value] : ctx.counters()) {
-            part << (any ? ", " : "") << json_quote(name) << ": " << json_number(value);
-            any = true;
-        }
-        part << "},\n     \"warnings\": [";
-        for (std::size_t w = 0; w < ctx.warnings().size(); ++w)
-            part << (w ? ", " : "") << json_quote(ctx.warnings()[w]);
-        part << "],\n     \"quality\": " << report_json << "}";
-        io::write_text_atomically(out.with_ext(stage, ".json").string(), part.str());
-        io::write_text_atomically(out.with_ext(stage, ".hash").string(), hashes[i] + "\n");
-        char buf[120];
-        std::snprintf(buf, sizeof buf, "%s done in %.2f s, peak memory %.0f MB: ", stage.name.c_str(), wall,
-                      peak_rss_mb());
-        info(buf + report_line);
-    }
-
-    // The final result: mesh.vtu for a tetrahedral mesh (a copy of the last checkpoint, or
-    // written again with the region names) plus the other formats asked for, and the
-    // quality report after refine; surface.vtu, a copy of the last checkpoint, for a surface.
-    // When every stage was up to date, only missing result files are written.
-    prepare_folder();
-    const bool ran_any = first <= last;
-    auto wanted = [&](const fs::path& file) { return ran_any || !fs::exists(file); };
-    const fs::path last_checkpoint = out.checkpoint(stages[last]);
-    const bool tet_result = stages[last].out == Kind::Tets;
-    const fs::path result = out.dir / (tet_result ? "mesh.vtu" : "surface.vtu");
-    if ((!tet_result || names.empty()) && wanted(result))
-        io::write_atomically(result.string(), [&](const std::string& temp) {
-            fs::copy_file(last_checkpoint, temp, fs::copy_options::overwrite_existing);
-        });
-    std::vector<std::pair<fs::path, io::MeshFormat>> exports;
-    if (tet_result) {
-        if (!names.empty() && wanted(result)) exports.emplace_back(result, io::MeshFormat::Vtu);
-        for (const std::string& name : recipe.output.formats) {
-            const io::MeshFormat format = io::format_from_name(name);
-            const fs::path file = out.dir / io::export_file_name(format);
-            if (format != io::MeshFormat::Vtu && wanted(file)) exports.emplace_back(file, format);
-        }
-    }
-    const bool report = tet_result && recipe.output.quality_report && stages[last].name == "refine" &&
-                        wanted(out.dir / "report.html");
-    if (!exports.empty() || report) {
-        const core::TetMesh mesh = std::holds_alternative<core::TetMesh>(data)
-                                       ? std::get<core::TetMesh>(std::move(data))
-                                       : io::read_tet_mesh(last_checkpoint.string());
-        const io::FieldStrings fields = {{"frame", frame}, {"stage", stages[last].name}, {"frontmesh_version", version()}};
-        for (const auto& [file, format] : exports) {
-            io::write_mesh(mesh, file.string(), format, names, fields);
-            info("wrote " + file.string());
-        }
-        if (report) {
-            // The tetra histograms of this run, else those of its checkpoint (--from refine).
-            const fs::path tetra_checkpoint = out.checkpoint(stages[static_cast<std::size_t>(last) - 1]);
-            if (!tetra_histograms && fs::exists(tetra_checkpoint))
-                tetra_histograms = quality_histograms(io::read_tet_mesh(tetra_checkpoint.string()));
-            write_quality_report(out.dir.string(), mesh, tetra_histograms ? &*tetra_histograms : nullptr,
-                                 recipe.path, figures.size() == mesh.tet_count() && ran_any ? &figures : nullptr);
-            info("wrote " + (out.dir / "report.html").string());
-        }
-    }
-    write_pvd();
-    write_summary("ok", "");
-    return result.string();
+    std::optional<StopSignals> signals;
+    if (options.cancel == nullptr) signals.emplace();
+    return Run(recipe, options, options.cancel ? options.cancel : &stop_requested).execute();
 }
 
 }  // namespace frontmesh::pipeline

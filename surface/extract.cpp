@@ -23,6 +23,7 @@
 
 #include "pipeline/core/error.h"
 #include "pipeline/core/self_intersection.h"
+#include "surface/morphology.h"
 
 namespace frontmesh::surface {
 namespace {
@@ -686,26 +687,36 @@ std::set<Label> labels_present(const std::vector<Label>& labels) {
     return s;
 }
 
-}  // namespace
-
-void validate(const ExtractParams& params) {
-    if (params.blur_sigma_mm < 0.0)
-        FM_THROW(InputError, "extract.blur_sigma_mm: must be >= 0, got " + std::to_string(params.blur_sigma_mm));
-    if (params.smoothing_iterations < 0 || params.smoothing_iterations > 1000)
-        FM_THROW(InputError, "extract.smoothing_iterations: must be in [0, 1000], got " +
-                                 std::to_string(params.smoothing_iterations));
-    if (!(params.smoothing_relaxation > 0.0 && params.smoothing_relaxation <= 1.0))
-        FM_THROW(InputError, "extract.smoothing_relaxation: must be in (0, 1], got " +
-                                 std::to_string(params.smoothing_relaxation));
-    for (Label l : params.labels)
-        if (l <= 0) FM_THROW(InputError, "input.labels: labels must be > 0 (0 is the outside), got " + std::to_string(l));
+// The labels to contour: the image's, after the voxel clean-up the params ask for (closing
+// first, then opening, on the whole image before any label is left out). One copy of the
+// label array either way; the whole image is copied only when a clean-up runs.
+std::vector<Label> cleaned_labels(const core::LabelImage& image, const ExtractParams& params,
+                                  core::StageContext& ctx) {
+    if (params.closing_voxels <= 0 && params.opening_voxels <= 0) return image.labels;
+    core::LabelImage work = image;
+    if (params.closing_voxels > 0) {
+        const std::size_t n = close_object(work, params.closing_voxels);
+        ctx.count("extract.closing_filled_voxels", double(n));
+        ctx.info("extract: closing of " + std::to_string(params.closing_voxels) +
+                 " voxel(s) filled " + std::to_string(n) + " voxels");
+    }
+    if (params.opening_voxels > 0) {
+        const std::size_t n = open_object(work, params.opening_voxels);
+        ctx.count("extract.opening_removed_voxels", double(n));
+        ctx.info("extract: opening of " + std::to_string(params.opening_voxels) +
+                 " voxel(s) removed " + std::to_string(n) + " voxels");
+    }
+    return std::move(work.labels);
 }
+
+}  // namespace
 
 core::SurfaceNetwork extract(const core::LabelImage& image, const ExtractParams& params,
                              core::StageContext& ctx) {
     validate(params);
     FM_CHECK(image.labels.size() == image.voxel_count());
-    const std::set<Label> present = labels_present(image.labels);
+    std::vector<Label> labels = cleaned_labels(image, params, ctx);
+    const std::set<Label> present = labels_present(labels);
     if (present.empty())
         FM_THROW(InputError, "input.image: '" + image.source +
                                  "' has no labelled (non-zero) voxel; for a grayscale image set input.threshold");
@@ -717,7 +728,6 @@ core::SurfaceNetwork extract(const core::LabelImage& image, const ExtractParams&
                                      "' (labels present: " + label_list(present) + ")");
     ctx.count("extract.labels", static_cast<double>(chosen.size()));
 
-    std::vector<Label> labels(image.labels);
     if (chosen.size() != present.size())
         for (Label& l : labels)
             if (l != 0 && !chosen.count(l)) l = 0;

@@ -1,10 +1,18 @@
 #pragma once
-// Extract stage: LabelImage -> SurfaceNetwork (the background surface of the remesher).
+// Extract stage, the first half of the paper's §2 background-mesh preparation ("a quality
+// surface mesh is generated on an underlying discrete surface called a background mesh").
+//   In:  a LabelImage (voxel labels, spacing, origin, direction), ExtractParams.
+//   Out: a SurfaceNetwork in mm in the image's frame: one closed, outward-oriented
+//        triangle boundary per chosen label, each interface once with both labels
+//        (region_in / region_out). Before contouring, the optional voxel closing and
+//        opening (surface/morphology.h) and the manifold clean-up edit the labels.
+//   Next: repair.
 
 #include <vector>
 
 #include "pipeline/core/label_image.h"
 #include "pipeline/core/stage_context.h"
+#include "pipeline/core/stage_params.h"
 #include "pipeline/core/surface_network.h"
 
 namespace frontmesh::surface {
@@ -15,7 +23,8 @@ enum class ExtractMethod {
     SurfaceNets,  ///< multi-label surface nets: every cube decided once for all labels
 };
 
-/// Parameters of the extract stage; defaults equal configs/reference.yaml (`extract.*`).
+/// Parameters of the extract stage: member `m` is recipe key `extract.m` (except `labels`,
+/// from `input.labels`); default, range and unit are declared in extract_keys().
 struct ExtractParams {
     std::vector<core::Label> labels;  ///< labels to mesh (`input.labels`); empty = all
     ExtractMethod method = ExtractMethod::Auto;
@@ -33,9 +42,24 @@ struct ExtractParams {
     /// with the outside between them, touching only along a voxel edge or at a corner are
     /// joined there, else one voxel is given up). Counted.
     bool manifold_cleanup = true;
+    /// Radius (voxels) of the closing of the labelled object before anything else: background
+    /// gaps, slits and holes narrower than 2 r + 1 voxels are filled with the nearest label
+    /// (one-voxel sulci whose sharp ends the remesher cannot follow). 0 = off. Counted
+    /// (`extract.closing_filled_voxels`).
+    int closing_voxels = 0;
+    /// Radius (voxels) of the opening of the object after the closing: sheets and spikes
+    /// thinner than 2 r + 1 voxels become background. 0 = off. Counted
+    /// (`extract.opening_removed_voxels`).
+    int opening_voxels = 0;
 };
 
-/// Throws InputError naming the key when a value is out of range.
+/// Every `extract.*` recipe key: the member it sets, default, range, unit and a one-line
+/// doc (surface/extract_params.cpp). The one declaration that validate(), the recipe reader
+/// and `frontmesh keys` read; the member defaults above equal its defaults (a test checks).
+const core::ParamTable<ExtractParams>& extract_keys();
+
+/// Throws InputError "extract.KEY: must be in RANGE, got VALUE" for a member outside its
+/// declared range, and "input.labels: ..." for a label <= 0.
 void validate(const ExtractParams& params);
 
 /// Contours the chosen labels. With several labels the result is one network: each

@@ -1,23 +1,12 @@
 #pragma once
-// Voxel clean-up before contouring: morphological opening of the labelled object.
+// Voxel clean-up before contouring: morphological closing and opening of the labelled object
+// (extract applies them for `ExtractParams::closing_voxels` and `opening_voxels`).
 
 #include <cstddef>
 
 #include "pipeline/core/label_image.h"
 
 namespace frontmesh::surface {
-
-/// Voxel clean-up of the labelled object before contouring; recipe keys
-/// `extract.closing_voxels` and `extract.opening_voxels`.
-struct MorphologyParams {
-    /// Radius (voxels) of the closing of the object: background gaps, slits and holes
-    /// narrower than 2 r + 1 voxels are filled (one-voxel sulci whose sharp ends the remesher
-    /// cannot follow). 0 = off. Range [0, 10].
-    int closing_voxels = 0;
-    /// Radius (voxels) of the opening of the object after the closing: sheets and spikes
-    /// thinner than 2 r + 1 voxels are removed. 0 = off. Range [0, 10].
-    int opening_voxels = 0;
-};
 
 /// Opens the union of all non-zero labels with the 6-neighbour diamond of radius `radius`
 /// voxels (erosion then dilation, both by breadth-first distance, O(voxels)): sheets, spikes

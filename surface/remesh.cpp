@@ -439,33 +439,6 @@ bool mesh_round(int round, Rounds& r, RoundResult& result) {
 
 }  // namespace
 
-void validate(const RemeshParams& p) {
-    auto fail = [](const std::string& key, const std::string& what) {
-        FM_THROW(InputError, "remesh." + key + ": " + what);
-    };
-    if (!(p.edge_length >= 0.0) || !std::isfinite(p.edge_length))
-        fail("edge_length", "must be >= 0 mm (0 = derived from the input)");
-    if (!(p.gradation >= 1.0) || !std::isfinite(p.gradation)) fail("gradation", "must be >= 1");
-    if (!(p.min_edge_length >= 0.0)) fail("min_edge_length", "must be >= 0 mm");
-    if (!(p.max_edge_length >= 0.0)) fail("max_edge_length", "must be >= 0 mm");
-    if (p.min_edge_length > 0.0 && p.max_edge_length > 0.0 &&
-        p.min_edge_length > p.max_edge_length)
-        fail("min_edge_length", "larger than remesh.max_edge_length");
-    if (!(p.curvature_angle_deg >= 0.0 && p.curvature_angle_deg < 90.0))
-        fail("curvature_angle_deg", "must be in [0, 90) degrees");
-    if (p.thickness_layers < 0) fail("thickness_layers", "must be >= 0");
-    if (!(p.feature_angle_deg >= 0.0 && p.feature_angle_deg < 180.0))
-        fail("feature_angle_deg", "must be in [0, 180) degrees");
-    for (const auto& [label, size] : p.label_edge_length)
-        if (!(size > 0.0) || !std::isfinite(size))
-            fail("label_edge_length", "label " + std::to_string(label) + " needs a size > 0 mm");
-    if (p.smoothing_iterations < 0) fail("smoothing_iterations", "must be >= 0");
-    if (!(p.flip_max_dihedral_deg >= 0.0 && p.flip_max_dihedral_deg <= 90.0))
-        fail("flip_max_dihedral_deg", "must be in [0, 90] degrees");
-    if (!(p.max_volume_change_percent >= 0.0 && p.max_volume_change_percent <= 100.0))
-        fail("max_volume_change_percent", "must be in [0, 100] percent (0 = off)");
-}
-
 double default_edge_length(const core::SurfaceNetwork& background) {
     return 2.0 * mean_edge_length(background);
 }

@@ -1,6 +1,11 @@
 #pragma once
-// Remesh stage (paper §2, issue 3): SurfaceNetwork (background) -> SurfaceNetwork, isotropic,
-// graded, every vertex on the background, interfaces shared, junction curves kept.
+// Remesh stage, the paper's §2 surface mesh generation (issue 3): the direct advancing-front
+// triangulation on the background mesh, features kept, sizes graded, then angle-based
+// smoothing.
+//   In:  the repaired SurfaceNetwork as background (closed, oriented), RemeshParams.
+//   Out: a new SurfaceNetwork, isotropic and graded, every vertex on the background,
+//        interfaces shared, junction curves kept; the target size per vertex.
+//   Next: tetra (its initial front).
 // Implementation: surface/remesh.cpp (the driver) and remesh_*.cpp; the file map is in
 // surface/remesh_internal.h.
 
@@ -10,11 +15,13 @@
 #include <vector>
 
 #include "pipeline/core/stage_context.h"
+#include "pipeline/core/stage_params.h"
 #include "pipeline/core/surface_network.h"
 
 namespace frontmesh::surface {
 
-/// Parameters of the remesh stage; recipe keys `remesh.<field>`.
+/// Parameters of the remesh stage: member `m` is recipe key `remesh.m`; default, range and
+/// unit are declared in remesh_keys().
 struct RemeshParams {
     /// h, mm, >= 0; 0 = derived from the input: twice the mean background edge length (about
     /// 1.3 voxels on a marching-cubes surface).
@@ -37,7 +44,13 @@ struct RemeshParams {
     double max_volume_change_percent = 0.0;
 };
 
-/// Throws InputError naming the key (`remesh.*`) when a value is out of range.
+/// Every `remesh.*` recipe key: the member it sets, default, range, unit and a one-line
+/// doc (surface/remesh_params.cpp). The one declaration that validate(), the recipe reader
+/// and `frontmesh keys` read; the member defaults above equal its defaults (a test checks).
+const core::ParamTable<RemeshParams>& remesh_keys();
+
+/// Throws InputError "remesh.KEY: must be in RANGE, got VALUE" for a member outside its
+/// declared range (and for the checks between keys).
 void validate(const RemeshParams& params);
 
 struct RemeshResult {

@@ -108,20 +108,6 @@ void verify(const SurfaceNetwork& net, const RepairParams& params, core::StageCo
 
 }  // namespace
 
-void validate(const RepairParams& params) {
-    auto non_negative = [](double value, const char* key) {
-        if (!std::isfinite(value) || value < 0.0)
-            FM_THROW(InputError, std::string("repair.") + key + " = " + format_number(value) +
-                                     ": must be a finite number >= 0");
-    };
-    non_negative(params.merge_tolerance_mm, "merge_tolerance_mm");
-    non_negative(params.min_component_volume_mm3, "min_component_volume_mm3");
-    if (params.max_hole_edges > k_max_hole_edges_limit)
-        FM_THROW(InputError, "repair.max_hole_edges = " + std::to_string(params.max_hole_edges) +
-                                 ": at most " + std::to_string(k_max_hole_edges_limit) +
-                                 " (filling is cubic in the hole size)");
-}
-
 core::SurfaceNetwork repair(const core::SurfaceNetwork& input, const RepairParams& params,
                             core::StageContext& ctx) {
     validate(params);

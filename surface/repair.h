@@ -1,16 +1,25 @@
 #pragma once
-// Repair stage: SurfaceNetwork -> SurfaceNetwork, watertight, oriented, checked.
+// Repair stage, the second half of the paper's §2 background-mesh preparation ("the
+// background mesh should be a water-tight triangulated surface. If not, automated and
+// manual repairing routines can be applied").
+//   In:  a SurfaceNetwork (from extract, or a surface file), RepairParams.
+//   Out: the same network watertight: points merged, degenerate/duplicate faces and small
+//        pieces removed, faces oriented out of region_in, holes filled, outer pinches
+//        split, every region closed and oriented (checked), self-intersections reported.
+//   Next: remesh (its background mesh).
 // Implementation: surface/repair.cpp (the driver) and one repair_*.cpp per step; the file map
 // is in surface/repair_internal.h.
 
 #include <cstddef>
 
 #include "pipeline/core/stage_context.h"
+#include "pipeline/core/stage_params.h"
 #include "pipeline/core/surface_network.h"
 
 namespace frontmesh::surface {
 
-/// Parameters of the repair stage; defaults equal configs/reference.yaml (`repair.*`).
+/// Parameters of the repair stage: member `m` is recipe key `repair.m`; default, range and
+/// unit are declared in repair_keys().
 struct RepairParams {
     double merge_tolerance_mm = 1e-6;     ///< points closer than this are merged
     double min_component_volume_mm3 = 1.0;  ///< closed pieces enclosing less are removed
@@ -21,7 +30,13 @@ struct RepairParams {
     bool fail_on_self_intersections = true;  ///< false: warn and go on
 };
 
-/// Throws InputError naming the key (`repair.*`) when a value is out of range.
+/// Every `repair.*` recipe key: the member it sets, default, range, unit and a one-line
+/// doc (surface/repair_params.cpp). The one declaration that validate(), the recipe reader
+/// and `frontmesh keys` read; the member defaults above equal its defaults (a test checks).
+const core::ParamTable<RepairParams>& repair_keys();
+
+/// Throws InputError "repair.KEY: must be in RANGE, got VALUE" for a member outside its
+/// declared range.
 void validate(const RepairParams& params);
 
 /// Merges coincident points, drops degenerate and duplicate faces, removes small

@@ -41,8 +41,6 @@ using core::Label;
 using core::SurfaceNetwork;
 using Tri = std::array<std::int32_t, 3>;
 
-/// Largest hole `max_hole_edges` may allow: filling is cubic in the hole size.
-constexpr std::size_t k_max_hole_edges_limit = 2000;
 
 // Codes of Topology::nbr besides a neighbour side id (>= 0).
 constexpr std::int32_t k_open = -1;         // the only face of its region on the edge

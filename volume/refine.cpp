@@ -22,9 +22,6 @@ namespace frontmesh::volume {
 
 namespace {
 
-constexpr double kRegularDihedralDeg = 70.528779365509308;  // arccos(1/3)
-
-
 struct Figures {
     std::size_t tets = 0;
     double max_skewness = 0.0;
@@ -158,24 +155,7 @@ void report_surface_fixed(const TetTopology& topo, const RefineOps& refiner, cor
     ctx.warn(buffer);
 }
 
-void check_range(bool ok, const std::string& key, const std::string& range) {
-    if (!ok) FM_THROW(InputError, "recipe key refine." + key + " must be in " + range);
-}
-
 }  // namespace
-
-void validate(const RefineParams& p) {
-    check_range(p.node_removal_max_tets >= 4 && p.node_removal_max_tets <= 12, "node_removal_max_tets", "[4, 12]");
-    check_range(p.passes >= 0 && p.passes <= 20, "passes", "[0, 20]");
-    check_range(p.smoothing_sweeps >= 1 && p.smoothing_sweeps <= 10, "smoothing_sweeps", "[1, 10]");
-    check_range(p.smoothing_skewness >= 0.0 && p.smoothing_skewness < 1.0, "smoothing_skewness", "[0, 1)");
-    check_range(p.flip_skewness >= 0.0 && p.flip_skewness < 1.0, "flip_skewness", "[0, 1)");
-    check_range(p.flip_max_ring >= 3 && p.flip_max_ring <= 10, "flip_max_ring", "[3, 10]");
-    check_range(p.flip_sweeps >= 1 && p.flip_sweeps <= 20, "flip_sweeps", "[1, 20]");
-    check_range(p.sliver_dihedral_deg > 0.0 && p.sliver_dihedral_deg <= kRegularDihedralDeg,
-                "sliver_dihedral_deg", "(0, 70.5]");
-    check_range(p.sliver_sweeps >= 1 && p.sliver_sweeps <= 20, "sliver_sweeps", "[1, 20]");
-}
 
 core::TetMesh refine(const core::TetMesh& mesh, const RefineParams& params, core::StageContext& ctx) {
     validate(params);

@@ -1,14 +1,19 @@
 #pragma once
-// Refine stage (§3.3): node removal, angle-based node smoothing and flips ("Delaunay
-// refinement"), then a sliver pass beyond the paper. TetMesh -> TetMesh; the input surface
-// triangles, the surface nodes and the regions are preserved exactly.
+// Refine stage, the paper's §3.3: node removal, angle-based node smoothing and flips
+// ("Delaunay refinement"), then a sliver pass beyond the paper.
+//   In:  the TetMesh of tetra, RefineParams.
+//   Out: an improved TetMesh; the input surface triangles, the surface nodes and the regions
+//        are preserved exactly.
+//   Last stage: the runner writes mesh.vtu and the exports from it.
 
 #include "pipeline/core/stage_context.h"
+#include "pipeline/core/stage_params.h"
 #include "pipeline/core/tet_mesh.h"
 
 namespace frontmesh::volume {
 
-/// Parameters of refine(); every field is recipe key `refine.<field>`.
+/// Parameters of refine(): member `m` is recipe key `refine.m`; default, range and unit are
+/// declared in refine_keys().
 struct RefineParams {
     /// §3.3.1: remove interior nodes with few tets around them (4: "inside a tetrahedron",
     /// 6: "inside a pyramid") and re-tetrahedralise the hole. bool.
@@ -46,7 +51,13 @@ struct RefineParams {
     int sliver_sweeps = 3;
 };
 
-/// Throws InputError naming the key `refine.<field>` when a parameter is out of range.
+/// Every `refine.*` recipe key: the member it sets, default, range, unit and a one-line
+/// doc (volume/refine_params.cpp). The one declaration that validate(), the recipe reader
+/// and `frontmesh keys` read; the member defaults above equal its defaults (a test checks).
+const core::ParamTable<RefineParams>& refine_keys();
+
+/// Throws InputError "refine.KEY: must be in RANGE, got VALUE" for a member outside its
+/// declared range.
 void validate(const RefineParams& params);
 
 /// Improves `mesh` (returns an improved copy): boundary and interface triangles (mesh.faces)

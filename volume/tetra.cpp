@@ -30,24 +30,6 @@
 
 namespace frontmesh::volume {
 
-void validate(const TetraParams& p) {
-    if (!(p.stretching > 1.0 && p.stretching <= 2.0))
-        FM_THROW(InputError, "tetra.stretching must be in (1.0, 2.0], got " +
-                                 std::to_string(p.stretching));
-    if (p.height_smoothing_iterations < 0 || p.height_smoothing_iterations > 100)
-        FM_THROW(InputError, "tetra.height_smoothing_iterations must be in [0, 100], got " +
-                                 std::to_string(p.height_smoothing_iterations));
-    if (p.max_remesh_per_node < 0 || p.max_remesh_per_node > 50)
-        FM_THROW(InputError, "tetra.max_remesh_per_node must be in [0, 50], got " +
-                                 std::to_string(p.max_remesh_per_node));
-    if (!(p.min_angle_deg >= 0.0 && p.min_angle_deg <= 30.0))
-        FM_THROW(InputError, "tetra.min_angle_deg must be in [0, 30], got " +
-                                 std::to_string(p.min_angle_deg));
-    if (p.max_closing_rounds < 0 || p.max_closing_rounds > 100)
-        FM_THROW(InputError, "tetra.max_closing_rounds must be in [0, 100], got " +
-                                 std::to_string(p.max_closing_rounds));
-}
-
 namespace detail {
 
 // ---- the level loop (§3, §3.1) ------------------------------------------------------------

@@ -1,14 +1,20 @@
 #pragma once
-// Tetra stage (issue 4): the layered tetrahedral advancing front of the paper, §3.1-3.2, one
-// region at a time from its closed boundary; the input surface is kept exactly.
+// Tetra stage, the paper's §3.1-3.2 (issue 4): the layered tetrahedral advancing front,
+// one region at a time from its closed boundary, with local remeshing where the front fails.
+//   In:  the remeshed SurfaceNetwork (closed, oriented; the initial front), TetraParams.
+//   Out: a TetMesh filling every region; the input surface kept exactly as its first nodes
+//        and its faces.
+//   Next: refine.
 
 #include "pipeline/core/stage_context.h"
+#include "pipeline/core/stage_params.h"
 #include "pipeline/core/surface_network.h"
 #include "pipeline/core/tet_mesh.h"
 
 namespace frontmesh::volume {
 
-/// Parameters of the tetra stage; every field is the recipe key `tetra.<field>`.
+/// Parameters of the tetra stage: member `m` is recipe key `tetra.m`; default, range and unit
+/// are declared in tetra_keys().
 struct TetraParams {
     /// alpha of Eq. 4, the stretching factor of the element size from one front level to the
     /// next (h_o = 1.24 alpha sqrt(a)). Default 1.15, dimensionless, range (1.0, 2.0].
@@ -28,7 +34,13 @@ struct TetraParams {
     int max_closing_rounds = 8;
 };
 
-/// Throws InputError naming the key `tetra.<field>` when a field is out of range.
+/// Every `tetra.*` recipe key: the member it sets, default, range, unit and a one-line
+/// doc (volume/tetra_params.cpp). The one declaration that validate(), the recipe reader
+/// and `frontmesh keys` read; the member defaults above equal its defaults (a test checks).
+const core::ParamTable<TetraParams>& tetra_keys();
+
+/// Throws InputError "tetra.KEY: must be in RANGE, got VALUE" for a member outside its
+/// declared range.
 void validate(const TetraParams& params);
 
 /// Meshes every region of `surface` (closed, oriented SurfaceNetwork; faces' normals point out

@@ -19,9 +19,10 @@ namespace frontmesh::core {
 enum class LogLevel { Debug, Info, Warning };
 
 /// Geometry a stage hands over for a person to inspect, e.g. the front around a stall or a
-/// cavity that could not be closed. The runner writes it as `diagnostics/NAME.vtu` beside
-/// the checkpoints (cells of 2, 3 or 4 points: edges, triangles, tets; the cell array
-/// `kind` carries `kinds`' meaning).
+/// cavity that could not be closed. The runner writes it as `diagnostics/STAGE-NAME.vtu`
+/// beside the checkpoints (cells of 2, 3 or 4 points: lines, triangles, tets; the cell
+/// array `kind` carries `kind`'s meaning, the field data `what`) and lists it in
+/// summary.json. The sink may be called from any thread.
 struct Diagnostic {
     std::string name;  ///< short, file-name safe: letters, digits, '-', '_', '.'
     std::string what;  ///< one line: why it was handed over, and what `kind` means

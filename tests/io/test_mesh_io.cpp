@@ -704,3 +704,58 @@ TEST_CASE("read_tet_mesh rejects files that are not tet meshes, naming them", "[
     CHECK_THROWS_AS(frontmesh::io::read_tet_mesh(dir + "/none.vtu"), InputError);
     CHECK_THROWS_WITH(frontmesh::io::read_tet_mesh(dir + "/x.msh"), Catch::Contains("x.msh"));
 }
+
+TEST_CASE("write_diagnostic_vtu writes lines, triangles and tets with kind and what", "[io]") {
+    core::Diagnostic d;
+    d.name = "stall";
+    d.what = "front left at the stall; kind 1 = front edge, 2 = front face, 3 = cavity tet";
+    const auto a = d.add_point(0, 0, 0), b = d.add_point(1, 0, 0), c = d.add_point(0, 1, 0),
+               e = d.add_point(0, 0, 1), f = d.add_point(0.25, 0.5, 0.125);
+    d.add_cell({a, b}, 1);
+    d.add_cell({a, b, c}, 2);
+    d.add_cell({a, b, c, e}, 3);
+    d.add_cell({b, c, f}, 2);
+    const std::string dir = fixtures::temp_dir("diagnostic");
+    const std::string path = dir + "/diagnostics/tetra-stall.vtu";
+    io::write_diagnostic_vtu(d, path, {{"stage", "tetra"}});
+
+    vtkNew<vtkXMLUnstructuredGridReader> reader;
+    reader->SetFileName(path.c_str());
+    reader->Update();
+    vtkUnstructuredGrid* grid = reader->GetOutput();
+    REQUIRE(grid->GetNumberOfPoints() == 5);
+    REQUIRE(grid->GetNumberOfCells() == 4);
+    CHECK(grid->GetCellType(0) == VTK_LINE);
+    CHECK(grid->GetCellType(1) == VTK_TRIANGLE);
+    CHECK(grid->GetCellType(2) == VTK_TETRA);
+    CHECK(grid->GetCellType(3) == VTK_TRIANGLE);
+    double p[3];
+    grid->GetPoint(4, p);
+    CHECK(p[0] == 0.25);
+    CHECK(p[1] == 0.5);
+    CHECK(p[2] == 0.125);
+    vtkIdType n = 0;
+    const vtkIdType* ids = nullptr;
+    grid->GetCellPoints(2, n, ids);
+    REQUIRE(n == 4);
+    CHECK(ids[3] == e);
+    auto* kind = vtkDataArray::SafeDownCast(grid->GetCellData()->GetAbstractArray("kind"));
+    REQUIRE(kind != nullptr);
+    CHECK(kind->GetTuple1(0) == 1);
+    CHECK(kind->GetTuple1(2) == 3);
+    CHECK(kind->GetTuple1(3) == 2);
+    auto text_of = [&](const char* name) {
+        auto* array = vtkDataArray::SafeDownCast(grid->GetFieldData()->GetAbstractArray(name));
+        REQUIRE(array != nullptr);
+        return std::string(static_cast<const char*>(array->GetVoidPointer(0)),
+                           static_cast<std::size_t>(array->GetNumberOfTuples()));
+    };
+    CHECK(text_of("what") == d.what);
+    CHECK(text_of("stage") == "tetra");
+    const auto files = std::distance(std::filesystem::directory_iterator(dir + "/diagnostics"),
+                                     std::filesystem::directory_iterator());
+    CHECK(files == 1);  // no temporary file left
+
+    d.add_cell({a}, 4);
+    CHECK_THROWS_AS(io::write_diagnostic_vtu(d, path), core::InternalError);
+}

@@ -1,6 +1,11 @@
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <regex>
+#include <set>
+#include <sstream>
+#include <type_traits>
+#include <variant>
 
 #include <catch2/catch.hpp>
 
@@ -121,7 +126,7 @@ TEST_CASE("recipe errors: one line naming file, line and key", "[pipeline]") {
 TEST_CASE("configs/reference.yaml documents every key with its default, and is valid", "[pipeline]") {
     const std::string path = std::string(FRONTMESH_SOURCE_DIR) + "/configs/reference.yaml";
     const std::string text = frontmesh::testing::slurp(path);
-    for (const auto& [key, value] : pipeline::recipe_keys()) {
+    for (const auto& [key, value, range, unit, doc] : pipeline::recipe_keys()) {
         INFO(key);
         const std::string leaf = key.substr(key.find('.') + 1);
         if (key == "input.image") continue;  // the reference names an example image
@@ -130,4 +135,151 @@ TEST_CASE("configs/reference.yaml documents every key with its default, and is v
         CHECK(std::regex_search(text, line));
     }
     CHECK_NOTHROW(pipeline::load_recipe(path));
+}
+
+namespace {
+
+// The value a typed member of `params` is set to (for the range tests).
+template <typename Params>
+void set_field(Params& params, const typename core::ParamSpec<Params>::Field& field, double v) {
+    std::visit(
+        [&](auto member) {
+            if constexpr (!std::is_same_v<decltype(member), std::monostate>)
+                params.*member = static_cast<std::remove_reference_t<decltype(params.*member)>>(v);
+        },
+        field);
+}
+
+template <typename Params>
+bool is_number(const core::ParamSpec<Params>& spec) {
+    return !std::holds_alternative<std::monostate>(spec.field) &&
+           !std::holds_alternative<bool Params::*>(spec.field);
+}
+
+template <typename Params>
+bool is_whole(const core::ParamSpec<Params>& spec) {
+    return is_number(spec) && !std::holds_alternative<double Params::*>(spec.field);
+}
+
+template <typename Params>
+double declared_default(const core::ParamSpec<Params>& spec) {
+    const std::string text(spec.default_yaml);
+    return text == "true" ? 1.0 : text == "false" ? 0.0 : std::stod(text);
+}
+
+// Every typed key: its declared default is the struct's member default and lies in its
+// range; validate() rejects a value just outside either end, naming the key.
+template <typename Params>
+void check_declarations(const core::ParamTable<Params>& table, const std::string& section) {
+    const Params defaults{};
+    CHECK_NOTHROW(validate(defaults));
+    for (const auto& spec : table) {
+        INFO(spec.key);
+        CHECK(spec.key.substr(0, section.size() + 1) == section + ".");
+        CHECK_FALSE(spec.doc.empty());
+        if (std::holds_alternative<std::monostate>(spec.field)) continue;
+        CHECK(core::field_value(defaults, spec.field) == declared_default(spec));
+        if (!is_number(spec)) continue;
+        CHECK(spec.range.contains(declared_default(spec)));
+        for (const double outside : {spec.range.lo_open ? spec.range.lo : spec.range.lo - 1.0,
+                                     spec.range.hi_open ? spec.range.hi : spec.range.hi + 1.0}) {
+            if (std::isinf(outside) ||
+                (outside < 0.0 && std::holds_alternative<std::size_t Params::*>(spec.field)))
+                continue;
+            Params p{};
+            set_field(p, spec.field, outside);
+            CHECK_THROWS_WITH(validate(p), Catch::StartsWith(std::string(spec.key) + ": must be"));
+        }
+    }
+}
+
+// A value of `spec` other than its default, as YAML text: "" when none is found.
+template <typename Params>
+std::string other_value(const core::ParamSpec<Params>& spec) {
+    const double d = declared_default(spec);
+    if (!is_number(spec)) return d == 1.0 ? "false" : "true";
+    for (const double v : {d + 1.0, d - 1.0, (spec.range.lo + spec.range.hi) / 2.0, d / 2.0}) {
+        if (v == d || !spec.range.contains(v) || (is_whole(spec) && v != std::floor(v))) continue;
+        std::ostringstream s;
+        s.precision(17);
+        s << v;
+        return s.str();
+    }
+    return "";
+}
+
+// Setting any typed key to another value changes its stage's canonical parameters (the
+// stage hash): canonical_params() lists every key of the table.
+template <typename Params>
+void check_hashed(const core::ParamTable<Params>& table, const std::string& section,
+                  const std::string& recipe) {
+    const std::string before = pipeline::canonical_params(pipeline::load_recipe(recipe), section);
+    for (const auto& spec : table) {
+        if (std::holds_alternative<std::monostate>(spec.field)) continue;
+        INFO(spec.key);
+        const std::string value = other_value(spec);
+        REQUIRE_FALSE(value.empty());
+        const auto changed = pipeline::load_recipe(recipe, {std::string(spec.key) + "=" + value});
+        CHECK(pipeline::canonical_params(changed, section) != before);
+    }
+}
+
+}  // namespace
+
+TEST_CASE("each stage declares every key once: defaults, ranges and validate agree", "[pipeline]") {
+    check_declarations(surface::extract_keys(), "extract");
+    check_declarations(surface::repair_keys(), "repair");
+    check_declarations(surface::remesh_keys(), "remesh");
+    check_declarations(volume::tetra_keys(), "tetra");
+    check_declarations(volume::refine_keys(), "refine");
+
+    // Hand-read keys too: a recipe without stage keys gives exactly the structs' defaults.
+    const std::string dir = fixtures::temp_dir("recipe_defaults");
+    fixtures::write_metaimage(fixtures::sphere_image(8, 2.0), dir + "/ball.mha");
+    write_file(dir + "/r.yaml", "input:\n  image: ball.mha\n");
+    const pipeline::Recipe loaded = pipeline::load_recipe(dir + "/r.yaml");
+    pipeline::Recipe defaults;
+    defaults.input = loaded.input;
+    for (const std::string section : {"extract", "repair", "remesh", "tetra", "refine"}) {
+        INFO(section);
+        CHECK(pipeline::canonical_params(loaded, section) ==
+              pipeline::canonical_params(defaults, section));
+    }
+
+    // Keys are unique and every stage key is a recipe key.
+    std::set<std::string> keys;
+    for (const auto& k : pipeline::recipe_keys()) CHECK(keys.insert(k.key).second);
+    CHECK(keys.count("tetra.stretching") == 1);
+    CHECK(keys.count("extract.closing_voxels") == 1);
+}
+
+TEST_CASE("every stage key is part of its stage's hash", "[pipeline]") {
+    const std::string dir = fixtures::temp_dir("recipe_hashed");
+    fixtures::write_metaimage(fixtures::sphere_image(8, 2.0), dir + "/ball.mha");
+    write_file(dir + "/r.yaml", "input:\n  image: ball.mha\n");
+    const std::string recipe = dir + "/r.yaml";
+    check_hashed(surface::extract_keys(), "extract", recipe);
+    check_hashed(surface::repair_keys(), "repair", recipe);
+    check_hashed(surface::remesh_keys(), "remesh", recipe);
+    check_hashed(volume::tetra_keys(), "tetra", recipe);
+    check_hashed(volume::refine_keys(), "refine", recipe);
+    const auto base = pipeline::load_recipe(recipe);
+    CHECK(pipeline::canonical_params(pipeline::load_recipe(recipe, {"extract.method=surface_nets"}),
+                                     "extract") != pipeline::canonical_params(base, "extract"));
+    CHECK(pipeline::canonical_params(
+              pipeline::load_recipe(recipe, {"remesh.label_edge_length={1: 2.0}"}), "remesh") !=
+          pipeline::canonical_params(base, "remesh"));
+}
+
+TEST_CASE("hand-read keys use their declared choices and ranges", "[pipeline]") {
+    CHECK_THAT(
+        error_of("input:\n  image: ball.mha\nextract:\n  method: marching\n"),
+        Catch::Contains("extract.method") && Catch::Contains("auto, flying_edges, surface_nets"));
+    CHECK_THAT(error_of("input:\n  image: ball.mha\nremesh:\n  label_edge_length: {3: 20000}\n"),
+               Catch::Contains("remesh.label_edge_length") && Catch::Contains("(0, 10000]"));
+    CHECK_THAT(error_of("input:\n  image: ball.mha\nremesh:\n  label_edge_length: {3: 0}\n"),
+               Catch::Contains("remesh.label_edge_length") && Catch::Contains("greater than 0"));
+    surface::RemeshParams p;
+    p.label_edge_length[3] = -1.0;
+    CHECK_THROWS_WITH(surface::validate(p), Catch::Contains("remesh.label_edge_length: label 3"));
 }

@@ -5,9 +5,11 @@
 #include <catch2/catch.hpp>
 
 #include "io/image_reader.h"
+#include "io/mesh_io.h"
 #include "pipeline/core/error.h"
 #include "surface/extract.h"
 #include "tests/fixtures/phantoms.h"
+#include "tests/pipeline/cli_helpers.h"
 
 using namespace frontmesh;
 
@@ -103,7 +105,7 @@ surface::ExtractParams with_method(surface::ExtractMethod m) {
 
 }  // namespace
 
-TEST_CASE("flying edges on a ball: closed, outward, volume of the voxels", "[surface]") {
+TEST_CASE("extract: flying edges on a ball: closed, outward, volume of the voxels", "[surface]") {
     const auto image = fixtures::sphere_image(64, 24.0, 1.0, 3);
     core::StageContext ctx;
     const auto s = surface::extract(image, with_method(surface::ExtractMethod::FlyingEdges), ctx);
@@ -114,7 +116,7 @@ TEST_CASE("flying edges on a ball: closed, outward, volume of the voxels", "[sur
     CHECK(s.region_out.front() == 0);
 }
 
-TEST_CASE("surface nets on a ball: closed, outward, volume of the voxels", "[surface]") {
+TEST_CASE("extract: surface nets on a ball: closed, outward, volume of the voxels", "[surface]") {
     const auto image = fixtures::sphere_image(64, 24.0, 1.0, 1);
     core::StageContext ctx;
     const auto s = surface::extract(image, with_method(surface::ExtractMethod::SurfaceNets), ctx);
@@ -123,7 +125,9 @@ TEST_CASE("surface nets on a ball: closed, outward, volume of the voxels", "[sur
     CHECK(core::enclosed_volume(s, 1) == Approx(labelled_volume(image, 1)).epsilon(0.01));
 }
 
-TEST_CASE("surface nets with a label blur: a one-voxel fin goes, labels and interfaces stay", "[surface]") {
+TEST_CASE(
+    "extract: surface nets with a label blur: a one-voxel fin goes, labels and interfaces stay",
+    "[surface]") {
     // Split ball (labels 1 and 2 share a flat interface) with a one-voxel-thick fin of label
     // 1 sticking out six voxels along +z.
     auto image = fixtures::split_ball_image(40, 12.0);
@@ -166,7 +170,7 @@ TEST_CASE("surface nets with a label blur: a one-voxel fin goes, labels and inte
     CHECK(speck_ctx.warnings()[0].find("label(s) 2") != std::string::npos);
 }
 
-TEST_CASE("a torus has genus one", "[surface]") {
+TEST_CASE("extract: a torus has genus one", "[surface]") {
     const auto image = fixtures::torus_image(30.0, 14.0, 1.0);
     core::StageContext ctx;
     for (auto method : {surface::ExtractMethod::FlyingEdges, surface::ExtractMethod::SurfaceNets}) {
@@ -177,7 +181,8 @@ TEST_CASE("a torus has genus one", "[surface]") {
     }
 }
 
-TEST_CASE("nested ellipsoids: one network, interfaces shared once, regions closed", "[surface]") {
+TEST_CASE("extract: nested ellipsoids: one network, interfaces shared once, regions closed",
+          "[surface]") {
     const auto image = fixtures::nested_ellipsoids_image(1.0, 1.5);
     core::StageContext ctx;
     const auto s = surface::extract(image, surface::ExtractParams{}, ctx);
@@ -206,7 +211,7 @@ TEST_CASE("nested ellipsoids: one network, interfaces shared once, regions close
     }
 }
 
-TEST_CASE("a reflecting direction matrix keeps faces outward", "[surface]") {
+TEST_CASE("extract: a reflecting direction matrix keeps faces outward", "[surface]") {
     auto image = fixtures::sphere_image(40, 12.0, 1.0);
     image.direction.col(0) *= -1.0;
     core::StageContext ctx;
@@ -216,7 +221,8 @@ TEST_CASE("a reflecting direction matrix keeps faces outward", "[surface]") {
     }
 }
 
-TEST_CASE("voxels touching along an edge or a corner are joined into a manifold", "[surface]") {
+TEST_CASE("extract: voxels touching along an edge or a corner are joined into a manifold",
+          "[surface]") {
     core::LabelImage image;
     image.dims = {8, 8, 8};
     image.labels.assign(512, 0);
@@ -233,7 +239,8 @@ TEST_CASE("voxels touching along an edge or a corner are joined into a manifold"
 }
 
 TEST_CASE(
-    "two labels meeting the outside along an edge or at a corner: the union boundary is manifold",
+    "extract: two labels meeting the outside along an edge or at a corner: the union boundary is "
+    "manifold",
     "[surface][extract]") {
     // Labels 1 and 2 touch only along a line of voxel edges, with 0 in the two other
     // voxels around it (1, 0, 2, 0); label 3 touches label 2 only at one voxel corner.
@@ -265,7 +272,7 @@ TEST_CASE(
     CHECK(ctx.counters().at("extract.voxels_changed_for_manifold") >= 1);
 }
 
-TEST_CASE("random labels: the clean-up ends with every region and their union manifold",
+TEST_CASE("extract: random labels: the clean-up ends with every region and their union manifold",
           "[surface][extract]") {
     // Salt and pepper of three labels and the outside: every kind of edge and corner
     // contact, many not mended by growing, so the shrinking phase runs too.
@@ -293,7 +300,7 @@ TEST_CASE("random labels: the clean-up ends with every region and their union ma
     }
 }
 
-TEST_CASE("label selection and its errors", "[surface]") {
+TEST_CASE("extract: label selection and its errors", "[surface]") {
     auto image = fixtures::nested_ellipsoids_image(1.0, 0.6);
     core::StageContext ctx;
     surface::ExtractParams p;
@@ -318,7 +325,8 @@ TEST_CASE("label selection and its errors", "[surface]") {
     CHECK_THROWS_AS(surface::extract(image, surface::ExtractParams{}, ctx), core::InputError);
 }
 
-TEST_CASE("AAL atlas: 116 regions closed and oriented, interfaces shared", "[surface][e2e]") {
+TEST_CASE("extract: AAL atlas: 116 regions closed and oriented, interfaces shared",
+          "[surface][e2e]") {
     const std::string path = "/usr/share/mricron/templates/aal.nii.gz";
     const auto image = io::read_label_image(path, io::ImageReadOptions{});
     core::StageContext ctx;
@@ -341,7 +349,9 @@ TEST_CASE("AAL atlas: 116 regions closed and oriented, interfaces shared", "[sur
     CHECK(interface_faces > 100000);
 }
 
-TEST_CASE("AAL atlas with the example's label blur: every region kept, closed and oriented", "[surface][e2e]") {
+TEST_CASE(
+    "extract: AAL atlas with the example's label blur: every region kept, closed and oriented",
+    "[surface][e2e]") {
     const std::string path = "/usr/share/mricron/templates/aal.nii.gz";
     const auto image = io::read_label_image(path, io::ImageReadOptions{});
     core::StageContext ctx;
@@ -352,4 +362,50 @@ TEST_CASE("AAL atlas with the example's label blur: every region kept, closed an
     CHECK(ctx.counters().at("extract.voxels_relabelled_by_blur") > 10000);
     CHECK(ctx.warnings() == std::vector<std::string>());
     require_closed_oriented_manifold(s);
+}
+
+TEST_CASE("extract applies its voxel closing and opening: a C++ caller gets the CLI's surface",
+          "[surface]") {
+    // Two blocks of labels 1 and 2 across a one-voxel slit (the closing fills it), and a
+    // one-voxel spike on block 1 (the opening removes it).
+    core::LabelImage image;
+    image.dims = {24, 16, 16};
+    image.labels.assign(image.voxel_count(), 0);
+    fill_box(image, {2, 2, 2}, {10, 13, 13}, 1);
+    fill_box(image, {12, 2, 2}, {21, 13, 13}, 2);
+    fill_box(image, {5, 14, 7}, {5, 15, 7}, 1);
+    const std::string dir = fixtures::temp_dir("extract_cleanup");
+    fixtures::write_metaimage(image, dir + "/blocks.mha");
+    const core::LabelImage read = io::read_label_image(dir + "/blocks.mha", io::ImageReadOptions{});
+
+    surface::ExtractParams params;
+    params.closing_voxels = 1;
+    params.opening_voxels = 1;
+    core::StageContext ctx;
+    const core::SurfaceNetwork cleaned = surface::extract(read, params, ctx);
+    CHECK(ctx.counters().at("extract.closing_filled_voxels") > 0);
+    CHECK(ctx.counters().at("extract.opening_removed_voxels") > 0);
+    require_closed_oriented_manifold(cleaned);
+    // The slit is gone: the two labels meet along an interface.
+    const auto interface = std::count_if(cleaned.region_out.begin(), cleaned.region_out.end(),
+                                         [](core::Label l) { return l != 0; });
+    CHECK(interface > 0);
+
+    core::StageContext plain_ctx;
+    const core::SurfaceNetwork plain = surface::extract(read, surface::ExtractParams{}, plain_ctx);
+    CHECK(plain.faces != cleaned.faces);
+    CHECK(plain_ctx.counters().count("extract.closing_filled_voxels") == 0);
+
+    // The command line, with the same two keys, writes exactly this surface.
+    testing::write_file(dir + "/r.yaml",
+                        "input:\n  image: blocks.mha\noutput:\n  dir: out\n"
+                        "extract:\n  closing_voxels: 1\n  opening_voxels: 1\n");
+    const auto run = testing::run_frontmesh("run r.yaml --until extract --quiet", dir);
+    INFO(run.err);
+    REQUIRE(run.exit_code == 0);
+    const core::SurfaceNetwork cli = io::read_surface(dir + "/out/checkpoints/01-extract.vtu");
+    CHECK(cli.xyz == cleaned.xyz);
+    CHECK(cli.faces == cleaned.faces);
+    CHECK(cli.region_in == cleaned.region_in);
+    CHECK(cli.region_out == cleaned.region_out);
 }

@@ -24,7 +24,8 @@ void fill(core::LabelImage& image, int i0, int i1, int j0, int j1, int k0, int k
 
 }  // namespace
 
-TEST_CASE("closing fills a narrow slit with the nearest label and keeps the object", "[extract]") {
+TEST_CASE("morphology: closing fills a narrow slit with the nearest label and keeps the object",
+          "[extract]") {
     // Two blocks, labels 1 and 2, 8 voxels thick, facing each other across a slit of w voxels.
     for (const int w : {1, 2, 3, 4}) {
         INFO("slit " << w);
@@ -50,7 +51,7 @@ TEST_CASE("closing fills a narrow slit with the nearest label and keeps the obje
     }
 }
 
-TEST_CASE("opening removes thin sheets and spikes, keeps thick parts", "[extract]") {
+TEST_CASE("morphology: opening removes thin sheets and spikes, keeps thick parts", "[extract]") {
     auto image = empty_image(30);
     fill(image, 5, 15, 5, 15, 5, 15, 3);   // a thick block
     fill(image, 15, 25, 8, 10, 5, 15, 3);  // a two-voxel-thick sheet sticking out

@@ -1,0 +1,188 @@
+// The runner's stage context: cancellation (Ctrl-C, SIGTERM, a caller's flag) and the
+// diagnostics sink.
+
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <cerrno>
+#include <filesystem>
+#include <string>
+#include <thread>
+
+#include <tbb/parallel_for.h>
+#include <catch2/catch.hpp>
+
+#include "io/mesh_io.h"
+#include "pipeline/core/stage_context.h"
+#include "pipeline/diagnostics.h"
+#include "pipeline/recipe.h"
+#include "pipeline/runner.h"
+#include "tests/fixtures/phantoms.h"
+#include "tests/pipeline/cli_helpers.h"
+
+using namespace frontmesh;
+using frontmesh::testing::slurp;
+using frontmesh::testing::write_file;
+namespace fs = std::filesystem;
+
+namespace {
+
+// A small triangle diagnostic named `name`.
+core::Diagnostic triangle(const std::string& name) {
+    core::Diagnostic d;
+    d.name = name;
+    d.what = "one triangle; kind 7";
+    d.add_cell({d.add_point(0, 0, 0), d.add_point(1, 0, 0), d.add_point(0, 1, 0)}, 7);
+    return d;
+}
+
+// A folder with a labelled ball and a recipe meshing it into out/.
+std::string ball_run_dir(const std::string& name) {
+    const std::string dir = fixtures::temp_dir(name);
+    fixtures::write_metaimage(fixtures::sphere_image(16, 5.0), dir + "/ball.mha");
+    write_file(dir + "/recipe.yaml", "input:\n  image: ball.mha\noutput:\n  dir: out\n");
+    return dir;
+}
+
+}  // namespace
+
+TEST_CASE("a cancelled context stops a stage with CancelledError", "[pipeline]") {
+    std::atomic<bool> stop{false};
+    core::StageContext ctx({}, {}, {}, &stop);
+    CHECK_NOTHROW(ctx.check_cancelled());
+    stop = true;
+    CHECK(ctx.is_cancelled());
+    CHECK_THROWS_AS(ctx.check_cancelled(), core::CancelledError);
+    CHECK_THROWS_AS(ctx.child().check_cancelled(), core::CancelledError);
+    CHECK_FALSE(core::StageContext().is_cancelled());
+}
+
+TEST_CASE("run_recipe stops when asked, finished checkpoints kept", "[pipeline]") {
+    const std::string dir = ball_run_dir("run_cancel");
+    const pipeline::Recipe recipe =
+        pipeline::load_recipe(dir + "/recipe.yaml", {"output.dir=" + dir + "/out"});
+    std::atomic<bool> stop{false};
+    pipeline::RunOptions options;
+    options.quiet = true;
+    options.until = "extract";
+    options.cancel = &stop;
+    pipeline::run_recipe(recipe, options);
+    const fs::path out = fs::path(dir) / "out";
+    const std::string extract = slurp(out / "checkpoints/01-extract.vtu");
+    REQUIRE_FALSE(extract.empty());
+
+    stop = true;
+    options.until = "repair";
+    try {
+        pipeline::run_recipe(recipe, options);
+        FAIL("no CancelledError");
+    } catch (const core::CancelledError& e) {
+        CHECK_THAT(e.what(), Catch::StartsWith("interrupted before reading the input"));
+    }
+    CHECK(slurp(out / "checkpoints/01-extract.vtu") == extract);
+    CHECK_FALSE(fs::exists(out / "checkpoints/02-repair.vtu"));
+    CHECK_FALSE(fs::exists(out / "checkpoints/02-repair.json"));
+    const std::string summary = slurp(out / "summary.json");
+    CHECK_THAT(summary, Catch::Contains("\"status\": \"interrupted\"") &&
+                            Catch::Contains("\"error\": \"interrupted before reading the input\""));
+    for (const auto& e : fs::recursive_directory_iterator(out))
+        CHECK(e.path().filename().string().find(".tmp-") == std::string::npos);
+}
+
+TEST_CASE("Ctrl-C: one line, exit code 130, summary interrupted", "[pipeline]") {
+    // The image is a named pipe: the run blocks hashing it until the test writes to it, so
+    // SIGINT arrives while the run has its handlers installed, whatever the timing.
+    const std::string dir = fixtures::temp_dir("run_sigint");
+    write_file(dir + "/recipe.yaml", "input:\n  image: pipe.mha\noutput:\n  dir: out\n");
+    const std::string pipe = dir + "/pipe.mha";
+    fs::remove(pipe);
+    REQUIRE(mkfifo(pipe.c_str(), 0600) == 0);
+    const pid_t pid = fork();
+    REQUIRE(pid >= 0);
+    if (pid == 0) {
+        if (chdir(dir.c_str()) != 0) _exit(98);
+        const int err = open((dir + "/.stderr").c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
+        dup2(err, STDERR_FILENO);
+        execl(FRONTMESH_BINARY, FRONTMESH_BINARY, "run", "recipe.yaml",
+              static_cast<char*>(nullptr));
+        _exit(99);
+    }
+    // Opening the write end succeeds once the run has opened the read end (bounded wait).
+    int fd = -1;
+    for (int tries = 0; fd < 0 && tries < 60000; ++tries) {
+        fd = open(pipe.c_str(), O_WRONLY | O_NONBLOCK);
+        if (fd < 0) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+    REQUIRE(fd >= 0);
+    REQUIRE(kill(pid, SIGINT) == 0);
+    const char bytes[] = "not an image";
+    CHECK(write(fd, bytes, sizeof bytes) == static_cast<ssize_t>(sizeof bytes));
+    close(fd);
+    int status = 0;
+    REQUIRE(waitpid(pid, &status, 0) == pid);
+    const std::string err = slurp(dir + "/.stderr");
+    INFO(err);
+    REQUIRE(WIFEXITED(status));
+    CHECK(WEXITSTATUS(status) == 130);
+    CHECK_THAT(err, Catch::StartsWith("frontmesh: interrupted"));
+    CHECK(std::count(err.begin(), err.end(), '\n') == 1);
+    CHECK_THAT(slurp(dir + "/out/summary.json"), Catch::Contains("\"status\": \"interrupted\""));
+    CHECK_FALSE(fs::exists(dir + "/out/checkpoints/01-extract.vtu"));
+}
+
+TEST_CASE("the diagnostics writer: one file per diagnostic, from any thread", "[pipeline]") {
+    const fs::path folder = fs::path(fixtures::temp_dir("diagnostics_writer")) / "diagnostics";
+    std::mutex lines_mutex;
+    std::vector<std::string> lines;
+    pipeline::DiagnosticsWriter writer(folder,
+                                       [&](core::LogLevel, const std::string& line) {
+                                           const std::lock_guard lock(lines_mutex);
+                                           lines.push_back(line);
+                                       },
+                                       {{"frame", "lps"}});
+    writer.start("tetra");
+    core::StageContext ctx({}, {}, writer.sink());
+    REQUIRE(ctx.wants_diagnostics());
+    tbb::parallel_for(
+        0, 16, [&](int i) { ctx.child().diagnose(triangle("region " + std::to_string(i % 8))); });
+    const auto files = pipeline::DiagnosticsWriter::files_of(folder, "tetra");
+    CHECK(files.size() == 16);  // names given twice get -2
+    CHECK(lines.size() == 16);
+    CHECK(fs::exists(folder / "tetra-region_3.vtu"));
+    CHECK(fs::exists(folder / "tetra-region_3-2.vtu"));
+    CHECK_THAT(lines.front(),
+               Catch::Contains("diagnostic: wrote") && Catch::Contains("one triangle"));
+    for (const auto& e : fs::directory_iterator(folder))
+        CHECK(e.path().filename().string().find(".tmp-") == std::string::npos);
+
+    // A stage started again forgets its earlier files, not those of other stages.
+    writer.start("refine");
+    ctx.diagnose(triangle("cavity"));
+    writer.start("tetra");
+    CHECK(pipeline::DiagnosticsWriter::files_of(folder, "tetra").empty());
+    CHECK(pipeline::DiagnosticsWriter::files_of(folder, "refine").size() == 1);
+}
+
+TEST_CASE("summary.json lists the diagnostics of its stages", "[pipeline]") {
+    const std::string dir = ball_run_dir("run_diagnostics");
+    const auto first = testing::run_frontmesh("run recipe.yaml --quiet --until repair", dir);
+    REQUIRE(first.exit_code == 0);
+    const fs::path out = fs::path(dir) / "out";
+    CHECK_THAT(slurp(out / "summary.json"), Catch::Contains("\"diagnostics\": []"));
+    io::write_diagnostic_vtu(triangle("hole"), (out / "diagnostics/repair-hole.vtu").string());
+
+    const auto again = testing::run_frontmesh("run recipe.yaml --quiet --until repair", dir);
+    REQUIRE(again.exit_code == 0);
+    CHECK_THAT(slurp(out / "summary.json"),
+               Catch::Contains("\"diagnostics\": [\"diagnostics/repair-hole.vtu\"]"));
+
+    const auto forced =
+        testing::run_frontmesh("run recipe.yaml --quiet --until repair --force", dir);
+    REQUIRE(forced.exit_code == 0);
+    CHECK_FALSE(fs::exists(out / "diagnostics/repair-hole.vtu"));
+    CHECK_THAT(slurp(out / "summary.json"), Catch::Contains("\"diagnostics\": []"));
+}
