@@ -22,6 +22,7 @@
 #include "io/label_table.h"
 #include "io/mesh_io.h"
 #include "pipeline/core/error.h"
+#include "pipeline/core/surface_check.h"
 #include "pipeline/diagnostics.h"
 #include "pipeline/quality_report.h"
 #include "pipeline/report.h"
@@ -464,6 +465,11 @@ void Run::read_input() {
     } else if (first_ == entry_) {
         info("reading surface " + recipe_.input.surface);
         data_ = io::read_surface(recipe_.input.surface);
+        // Straight into tetra, the surface is kept exactly as it is: it must be closed,
+        // oriented and clean (repair does that otherwise). A defect is bad input, exit 2.
+        if (stages_[entry_].in == Kind::Surface && stages_[entry_].out == Kind::Tets)
+            core::require_meshable_surface(std::get<core::SurfaceNetwork>(data_),
+                                           "input.surface '" + recipe_.input.surface + "'");
     } else {
         info("reading checkpoint " + out_.checkpoint(stages_[first_ - 1]).string());
         data_ = read_checkpoint(out_.checkpoint(stages_[first_ - 1]), stages_[first_ - 1].out);

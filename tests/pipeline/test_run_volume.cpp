@@ -167,3 +167,45 @@ TEST_CASE("AAL left hippocampus: real image to refined tets, refereed, exported"
     const std::string n = std::to_string(mesh.tet_count());
     CHECK_THAT(slurp(fs::path(dir) / "meshio.txt"), Catch::Contains(n + " " + n + " " + n + "\n"));
 }
+
+TEST_CASE("a defective surface given to --from tetra is bad input, named, nothing written",
+          "[pipeline][volume]") {
+    const std::string dir = fixtures::temp_dir("run_volume_bad_surface");
+    struct Case {
+        const char* name;
+        const char* words;
+        void (*spoil)(core::SurfaceNetwork&);
+    };
+    const Case cases[] = {
+        {"open", "open boundary of region 1",
+         [](core::SurfaceNetwork& s) {
+             s.faces.pop_back();
+             s.region_in.pop_back();
+             s.region_out.pop_back();
+         }},
+        {"flipped", "misoriented boundary of region 1",
+         [](core::SurfaceNetwork& s) { std::swap(s.faces[5][0], s.faces[5][1]); }},
+        {"inverted", "region 1 encloses -",
+         [](core::SurfaceNetwork& s) {
+             for (auto& f : s.faces) std::swap(f[0], f[1]);
+         }},
+        {"same_sides", "region_out is 1",
+         [](core::SurfaceNetwork& s) { std::fill(s.region_out.begin(), s.region_out.end(), 1); }},
+    };
+    for (const Case& c : cases) {
+        INFO(c.name);
+        core::SurfaceNetwork s = fixtures::uv_sphere(10.0, 12);
+        c.spoil(s);
+        io::write_surface_vtu(s, dir + "/" + c.name + ".vtu", {});
+        write_file(dir + "/" + c.name + ".yaml",
+                   std::string("input:\n  surface: ") + c.name + ".vtu\noutput:\n  dir: out-" +
+                       c.name + "\n");
+        const auto r = run_frontmesh(std::string("run ") + c.name + ".yaml --quiet --from tetra", dir);
+        INFO(r.err);
+        CHECK(r.exit_code == 2);
+        CHECK_THAT(r.err, Catch::Contains(c.words) && Catch::Contains("mm") &&
+                              Catch::Contains(std::string(c.name) + ".vtu"));
+        CHECK(std::count(r.err.begin(), r.err.end(), '\n') == 1);
+        CHECK_FALSE(fs::exists(fs::path(dir) / (std::string("out-") + c.name)));
+    }
+}
