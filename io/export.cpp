@@ -68,8 +68,8 @@ bool same_orientation(const std::array<std::int32_t, 3>& f, const std::array<std
 core::TetMesh settle(detail::RawMesh raw, MeshReadInfo* info, bool keep_orientation) {
     core::TetMesh mesh = std::move(raw.mesh);
     for (auto& t : mesh.tets)
-        if (!keep_orientation && core::tet_signed_volume(mesh.point(t[0]), mesh.point(t[1]), mesh.point(t[2]),
-                                    mesh.point(t[3])) < 0)
+        if (!keep_orientation && core::tet_signed_volume(mesh.point(t[0]), mesh.point(t[1]),
+                                                         mesh.point(t[2]), mesh.point(t[3])) < 0)
             std::swap(t[0], t[1]);
     core::derive_boundary_faces(mesh);  // every boundary / interface face, once
     std::unordered_map<Key, std::int32_t, KeyHash> derived;
@@ -122,7 +122,8 @@ core::TetMesh settle(detail::RawMesh raw, MeshReadInfo* info, bool keep_orientat
             on_face[static_cast<std::size_t>(v)] = 1;
             k = std::max(k, v + 1);
         }
-    const bool leading = std::all_of(on_face.begin(), on_face.begin() + k, [](char c) { return c != 0; });
+    const bool leading =
+        std::all_of(on_face.begin(), on_face.begin() + k, [](char c) { return c != 0; });
     mesh.surface_vertices = leading ? k : static_cast<std::int32_t>(mesh.node_count());
     if (info) {
         info->format = raw.format;
@@ -182,12 +183,18 @@ const std::vector<std::string>& format_names() {
 
 std::string export_file_name(MeshFormat format, const std::string& stem) {
     switch (format) {
-        case MeshFormat::Vtu: return stem + ".vtu";
-        case MeshFormat::Msh41: return stem + ".msh";
-        case MeshFormat::Msh22: return stem + ".v22.msh";
-        case MeshFormat::Medit: return stem + ".mesh";
-        case MeshFormat::Abaqus: return stem + ".inp";
-        case MeshFormat::Febio: return stem + ".feb";
+        case MeshFormat::Vtu:
+            return stem + ".vtu";
+        case MeshFormat::Msh41:
+            return stem + ".msh";
+        case MeshFormat::Msh22:
+            return stem + ".v22.msh";
+        case MeshFormat::Medit:
+            return stem + ".mesh";
+        case MeshFormat::Abaqus:
+            return stem + ".inp";
+        case MeshFormat::Febio:
+            return stem + ".feb";
     }
     FM_THROW(InternalError, "unknown MeshFormat");
 }
@@ -196,7 +203,8 @@ void write_mesh(const core::TetMesh& mesh, const std::string& path, MeshFormat f
                 const LabelTable& names, const FieldStrings& fields) {
     FM_CHECK(mesh.tet_count() > 0);
     FM_CHECK(mesh.region.size() == mesh.tet_count());
-    FM_CHECK(mesh.region_in.size() == mesh.face_count() && mesh.region_out.size() == mesh.face_count());
+    FM_CHECK(mesh.region_in.size() == mesh.face_count() &&
+             mesh.region_out.size() == mesh.face_count());
     switch (format) {
         case MeshFormat::Vtu: {
             FieldStrings f = fields;
@@ -204,15 +212,26 @@ void write_mesh(const core::TetMesh& mesh, const std::string& path, MeshFormat f
             write_tet_mesh_vtu(mesh, path, f);
             return;
         }
-        case MeshFormat::Msh41: detail::write_msh41(mesh, path, names); return;
-        case MeshFormat::Msh22: detail::write_msh22(mesh, path, names); return;
-        case MeshFormat::Medit: detail::write_medit(mesh, path, names); return;
-        case MeshFormat::Abaqus: detail::write_abaqus(mesh, path, names); return;
-        case MeshFormat::Febio: detail::write_febio(mesh, path, names); return;
+        case MeshFormat::Msh41:
+            detail::write_msh41(mesh, path, names);
+            return;
+        case MeshFormat::Msh22:
+            detail::write_msh22(mesh, path, names);
+            return;
+        case MeshFormat::Medit:
+            detail::write_medit(mesh, path, names);
+            return;
+        case MeshFormat::Abaqus:
+            detail::write_abaqus(mesh, path, names);
+            return;
+        case MeshFormat::Febio:
+            detail::write_febio(mesh, path, names);
+            return;
     }
 }
 
-core::TetMesh read_mesh(const std::string& path, LabelTable* names, MeshReadInfo* info, bool keep_orientation) {
+core::TetMesh read_mesh(const std::string& path, LabelTable* names, MeshReadInfo* info,
+                        bool keep_orientation) {
     if (!std::filesystem::is_regular_file(path)) FM_THROW(InputError, path + ": no such file");
     const std::string ext = lower(std::filesystem::path(path).extension().string());
     if (ext == ".vtu") {
@@ -225,7 +244,8 @@ core::TetMesh read_mesh(const std::string& path, LabelTable* names, MeshReadInfo
             reader->SetFileName(path.c_str());
             reader->Update();
             vtkUnstructuredGrid* grid = reader->GetOutput();
-            FM_CHECK(grid != nullptr && static_cast<std::size_t>(grid->GetNumberOfCells()) == mesh.tet_count());
+            FM_CHECK(grid != nullptr &&
+                     static_cast<std::size_t>(grid->GetNumberOfCells()) == mesh.tet_count());
             auto it = vtkSmartPointer<vtkCellArrayIterator>::Take(grid->GetCells()->NewIterator());
             std::size_t t = 0;
             for (it->GoToFirstCell(); !it->IsDoneWithTraversal(); it->GoToNextCell(), ++t) {
@@ -233,7 +253,8 @@ core::TetMesh read_mesh(const std::string& path, LabelTable* names, MeshReadInfo
                 const vtkIdType* pts = nullptr;
                 it->GetCurrentCell(npts, pts);
                 FM_CHECK(npts == 4);
-                for (int k = 0; k < 4; ++k) mesh.tets[t][static_cast<std::size_t>(k)] = static_cast<std::int32_t>(pts[k]);
+                for (int k = 0; k < 4; ++k)
+                    mesh.tets[t][static_cast<std::size_t>(k)] = static_cast<std::int32_t>(pts[k]);
             }
         }
         if (names) {
@@ -262,10 +283,15 @@ core::TetMesh read_mesh(const std::string& path, LabelTable* names, MeshReadInfo
         return mesh;
     }
     detail::RawMesh raw;
-    if (ext == ".msh") raw = detail::read_msh(path);
-    else if (ext == ".mesh") raw = detail::read_medit(path);
-    else if (ext == ".inp") raw = detail::read_abaqus(path);
-    else FM_THROW(InputError, path + ": cannot read meshes of type \"" + ext + "\" (known: .vtu .msh .mesh .inp)");
+    if (ext == ".msh")
+        raw = detail::read_msh(path);
+    else if (ext == ".mesh")
+        raw = detail::read_medit(path);
+    else if (ext == ".inp")
+        raw = detail::read_abaqus(path);
+    else
+        FM_THROW(InputError, path + ": cannot read meshes of type \"" + ext +
+                                 "\" (known: .vtu .msh .mesh .inp)");
     if (raw.mesh.tet_count() == 0) FM_THROW(InputError, path + ": contains no tetrahedra");
     const std::size_t n = raw.mesh.node_count();
     for (const auto& t : raw.mesh.tets)
@@ -294,7 +320,8 @@ TextOut::~TextOut() {
 }
 
 void TextOut::flush() {
-    if (!buf_.empty() && std::fwrite(buf_.data(), 1, buf_.size(), file_) != buf_.size()) failed_ = true;
+    if (!buf_.empty() && std::fwrite(buf_.data(), 1, buf_.size(), file_) != buf_.size())
+        failed_ = true;
     buf_.clear();
 }
 
@@ -336,7 +363,8 @@ long long Tokens::integer(const char* what) {
     const auto r = std::from_chars(w.data(), w.data() + w.size(), v);
     if (r.ec != std::errc() || r.ptr != w.data() + w.size()) {
         pos_ -= w.size();
-        fail(std::string("expected ") + what + " (a whole number), found \"" + std::string(w.substr(0, 40)) + "\"");
+        fail(std::string("expected ") + what + " (a whole number), found \"" +
+             std::string(w.substr(0, 40)) + "\"");
     }
     return v;
 }
@@ -348,7 +376,8 @@ double Tokens::real(const char* what) {
     const auto r = std::from_chars(first, w.data() + w.size(), v);
     if (r.ec != std::errc() || r.ptr != w.data() + w.size()) {
         pos_ -= w.size();
-        fail(std::string("expected ") + what + " (a number), found \"" + std::string(w.substr(0, 40)) + "\"");
+        fail(std::string("expected ") + what + " (a number), found \"" +
+             std::string(w.substr(0, 40)) + "\"");
     }
     return v;
 }
@@ -370,10 +399,12 @@ void Tokens::skip_line() {
 void Tokens::fail(const std::string& message) const {
     // At the end of the file, name its last line rather than the empty one after it.
     std::size_t at = std::min(pos_, text_.size());
-    while (at > 0 && at == text_.size() && std::isspace(static_cast<unsigned char>(text_[at - 1]))) --at;
+    while (at > 0 && at == text_.size() && std::isspace(static_cast<unsigned char>(text_[at - 1])))
+        --at;
     while (at > 0 && at < pos_ && std::isspace(static_cast<unsigned char>(text_[at - 1]))) --at;
     const std::size_t line =
-        1 + static_cast<std::size_t>(std::count(text_.begin(), text_.begin() + static_cast<std::ptrdiff_t>(at), '\n'));
+        1 + static_cast<std::size_t>(
+                std::count(text_.begin(), text_.begin() + static_cast<std::ptrdiff_t>(at), '\n'));
     FM_THROW(InputError, path_ + ":" + std::to_string(line) + ": " + message);
 }
 
@@ -401,11 +432,13 @@ std::vector<RegionGroup> region_groups(const core::TetMesh& mesh, const LabelTab
     for (std::size_t t = 0; t < mesh.tet_count(); ++t)
         by_label[mesh.region[t]].push_back(static_cast<std::int32_t>(t));
     std::vector<RegionGroup> groups;
-    for (auto& [label, tets] : by_label) groups.push_back({label, names.safe_name(label), std::move(tets)});
+    for (auto& [label, tets] : by_label)
+        groups.push_back({label, names.safe_name(label), std::move(tets)});
     return groups;
 }
 
-std::vector<std::int32_t> face_nodes(const core::TetMesh& mesh, const std::vector<std::int32_t>& faces) {
+std::vector<std::int32_t> face_nodes(const core::TetMesh& mesh,
+                                     const std::vector<std::int32_t>& faces) {
     std::vector<std::int32_t> nodes;
     nodes.reserve(3 * faces.size());
     for (std::int32_t f : faces)
@@ -424,8 +457,8 @@ std::vector<std::array<std::int32_t, 2>> face_tets(const core::TetMesh& mesh) {
     std::vector<std::array<std::int32_t, 2>> result(mesh.face_count(), {-1, -1});
     for (std::size_t t = 0; t < mesh.tet_count(); ++t)
         for (int k = 0; k < 4; ++k) {
-            const std::array<std::int32_t, 3> g{mesh.tets[t][kFace[k][0]], mesh.tets[t][kFace[k][1]],
-                                                mesh.tets[t][kFace[k][2]]};
+            const std::array<std::int32_t, 3> g{
+                mesh.tets[t][kFace[k][0]], mesh.tets[t][kFace[k][1]], mesh.tets[t][kFace[k][2]]};
             const auto it = index.find(sorted_key(g));
             if (it == index.end()) continue;
             const auto f = static_cast<std::size_t>(it->second);

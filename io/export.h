@@ -56,12 +56,12 @@ void write_mesh(const core::TetMesh& mesh, const std::string& path, MeshFormat f
 
 /// What read_mesh found besides the mesh.
 struct MeshReadInfo {
-    std::string format;                  ///< "vtu", "msh 4.1", "msh 2.2", "mesh", "inp"
-    std::size_t file_triangles = 0;      ///< triangles in the file
-    std::size_t ignored_triangles = 0;   ///< of those, not a boundary/interface face of the
-                                         ///< tets (or repeated): not kept in mesh.faces
-    std::size_t derived_faces = 0;       ///< boundary/interface faces not in the file, added
-    FieldStrings fields;                 ///< VTU field-data strings
+    std::string format;                 ///< "vtu", "msh 4.1", "msh 2.2", "mesh", "inp"
+    std::size_t file_triangles = 0;     ///< triangles in the file
+    std::size_t ignored_triangles = 0;  ///< of those, not a boundary/interface face of the
+                                        ///< tets (or repeated): not kept in mesh.faces
+    std::size_t derived_faces = 0;      ///< boundary/interface faces not in the file, added
+    FieldStrings fields;                ///< VTU field-data strings
 };
 
 /// Reads a tetrahedral mesh: .vtu (io::read_tet_mesh), .msh (Gmsh 4.1 or 2.2, ASCII),

@@ -26,7 +26,8 @@ std::string abaqus_name(const SurfaceGroup& g, const std::string& suffix) {
     std::string name = g.name + suffix;
     if (name.size() <= kMaxAbaqusName) return name;
     return (g.out == 0 ? "boundary_" + std::to_string(g.in)
-                       : "interface_" + std::to_string(g.in) + "_" + std::to_string(g.out)) + suffix;
+                       : "interface_" + std::to_string(g.in) + "_" + std::to_string(g.out)) +
+           suffix;
 }
 
 template <class Ids>
@@ -60,7 +61,8 @@ std::vector<std::string> split_commas(const std::string& line) {
     std::size_t start = 0;
     for (;;) {
         const std::size_t c = line.find(',', start);
-        out.push_back(trim(line.substr(start, c == std::string::npos ? std::string::npos : c - start)));
+        out.push_back(
+            trim(line.substr(start, c == std::string::npos ? std::string::npos : c - start)));
         if (c == std::string::npos) break;
         start = c + 1;
     }
@@ -76,26 +78,27 @@ void write_abaqus(const core::TetMesh& mesh, const std::string& path, const Labe
     const auto owner = face_tets(mesh);
     write_atomically(path, [&](const std::string& temp) {
         TextOut out(temp);
-        out << "*HEADING\nfrontmesh tetrahedral mesh: " << mesh.node_count() << " nodes, " << mesh.tet_count()
-            << " C3D4 elements, " << regions.size() << " regions, " << surfaces.size() << " surfaces\n";
+        out << "*HEADING\nfrontmesh tetrahedral mesh: " << mesh.node_count() << " nodes, "
+            << mesh.tet_count() << " C3D4 elements, " << regions.size() << " regions, "
+            << surfaces.size() << " surfaces\n";
         out << "** Element sets are regions; surfaces are boundary (region_out 0) and interface\n"
                "** faces of the tets of region_in. No materials, sections or steps are defined.\n";
         for (const auto& r : regions) out << "** region " << r.label << ' ' << r.name << '\n';
         out << "*NODE, NSET=ALLNODES\n";
         for (std::size_t v = 0; v < mesh.node_count(); ++v)
-            out << v + 1 << ", " << mesh.xyz[3 * v] << ", " << mesh.xyz[3 * v + 1] << ", " << mesh.xyz[3 * v + 2]
-                << '\n';
+            out << v + 1 << ", " << mesh.xyz[3 * v] << ", " << mesh.xyz[3 * v + 1] << ", "
+                << mesh.xyz[3 * v + 2] << '\n';
         for (const auto& r : regions) {
             out << "*ELEMENT, TYPE=C3D4, ELSET=" << r.name << '\n';
             for (std::int32_t t : r.tets) {
                 const auto& q = mesh.tets[static_cast<std::size_t>(t)];
-                out << static_cast<std::int64_t>(t) + 1 << ", " << q[0] + 1 << ", " << q[1] + 1 << ", " << q[2] + 1
-                    << ", " << q[3] + 1 << '\n';
+                out << static_cast<std::int64_t>(t) + 1 << ", " << q[0] + 1 << ", " << q[1] + 1
+                    << ", " << q[2] + 1 << ", " << q[3] + 1 << '\n';
             }
         }
         for (const auto& g : surfaces) {
-            out << "** surface " << g.tag << ' ' << g.name << " region_in " << g.in << " region_out " << g.out
-                << '\n';
+            out << "** surface " << g.tag << ' ' << g.name << " region_in " << g.in
+                << " region_out " << g.out << '\n';
             out << "*NSET, NSET=" << abaqus_name(g, "_NODES") << '\n';
             write_id_lines(out, face_nodes(mesh, g.faces));
             // One element set per Abaqus face number, then the surface made of them.
@@ -113,7 +116,8 @@ void write_abaqus(const core::TetMesh& mesh, const std::string& path, const Labe
             out << "*SURFACE, TYPE=ELEMENT, NAME=" << abaqus_name(g, "") << '\n';
             for (int s = 0; s < 4; ++s)
                 if (!by_face[s].empty())
-                    out << abaqus_name(g, "_S" + std::to_string(s + 1)) << ", S" << std::to_string(s + 1) << '\n';
+                    out << abaqus_name(g, "_S" + std::to_string(s + 1)) << ", S"
+                        << std::to_string(s + 1) << '\n';
         }
         out.close();
     });
@@ -188,8 +192,10 @@ RawMesh read_abaqus(const std::string& path) {
                 block = Block::Node;
             } else if (keyword == "*ELEMENT") {
                 const std::string type = upper(params["TYPE"]);
-                if (type.rfind("C3D4", 0) == 0) nodes_per_element = 4;
-                else if (type.rfind("C3D10", 0) == 0) nodes_per_element = 10;
+                if (type.rfind("C3D4", 0) == 0)
+                    nodes_per_element = 4;
+                else if (type.rfind("C3D10", 0) == 0)
+                    nodes_per_element = 10;
                 else {
                     block = Block::Skip;  // other element types are not part of the tet mesh
                     continue;
@@ -223,7 +229,8 @@ RawMesh read_abaqus(const std::string& path) {
             if (pending.size() >= static_cast<std::size_t>(nodes_per_element + 1)) {
                 if (pending.size() > static_cast<std::size_t>(nodes_per_element + 1))
                     fail("too many nodes for the element type");
-                elements.push_back({pending[0], {pending[1], pending[2], pending[3], pending[4]}, element_set});
+                elements.push_back(
+                    {pending[0], {pending[1], pending[2], pending[3], pending[4]}, element_set});
                 pending.clear();
             }
         }
@@ -254,16 +261,20 @@ RawMesh read_abaqus(const std::string& path) {
         }
         if (r <= 0 || r > 2147483647LL) r = static_cast<long long>(i) + 1;
         region_of[s] = static_cast<core::Label>(r);
-        if (!s.empty() && s != "REGION_" + std::to_string(r)) name_of[static_cast<core::Label>(r)] = name;
+        if (!s.empty() && s != "REGION_" + std::to_string(r))
+            name_of[static_cast<core::Label>(r)] = name;
     }
-    std::stable_sort(elements.begin(), elements.end(), [](const Element& a, const Element& b) { return a.id < b.id; });
+    std::stable_sort(elements.begin(), elements.end(),
+                     [](const Element& a, const Element& b) { return a.id < b.id; });
     for (const auto& e : elements) {
         std::int32_t v[4];
         for (int k = 0; k < 4; ++k) {
             const auto it = index.find(e.nodes[static_cast<std::size_t>(k)]);
             if (it == index.end())
-                FM_THROW(InputError, path + ": element " + std::to_string(e.id) + " refers to node " +
-                                         std::to_string(e.nodes[static_cast<std::size_t>(k)]) + ", which is not defined");
+                FM_THROW(InputError, path + ": element " + std::to_string(e.id) +
+                                         " refers to node " +
+                                         std::to_string(e.nodes[static_cast<std::size_t>(k)]) +
+                                         ", which is not defined");
             v[k] = it->second;
         }
         raw.mesh.add_tet(v[0], v[1], v[2], v[3], region_of[e.set]);

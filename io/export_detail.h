@@ -59,8 +59,8 @@ private:
 struct SurfaceGroup {
     core::Label in = 0, out = 0;
     int tag = 0;
-    std::string name;                   ///< boundary_<in> / interface_<in>_<out>
-    std::vector<std::int32_t> faces;    ///< indices into mesh.faces, increasing
+    std::string name;                 ///< boundary_<in> / interface_<in>_<out>
+    std::vector<std::int32_t> faces;  ///< indices into mesh.faces, increasing
 };
 std::vector<SurfaceGroup> surface_groups(const core::TetMesh& mesh, const LabelTable& names);
 
@@ -73,7 +73,8 @@ struct RegionGroup {
 std::vector<RegionGroup> region_groups(const core::TetMesh& mesh, const LabelTable& names);
 
 /// Sorted, unique nodes of some faces.
-std::vector<std::int32_t> face_nodes(const core::TetMesh& mesh, const std::vector<std::int32_t>& faces);
+std::vector<std::int32_t> face_nodes(const core::TetMesh& mesh,
+                                     const std::vector<std::int32_t>& faces);
 
 /// For each face of mesh.faces, the tet of region_in with that face as an outward face and
 /// the local face index k (face opposite node k, nodes {1,2,3},{0,3,2},{0,1,3},{0,2,1});
@@ -91,11 +92,11 @@ class Tokens {
 public:
     /// Reads the whole file; throws InputError when it cannot be read.
     explicit Tokens(const std::string& path);
-    bool at_end();                              ///< only whitespace left
-    std::string_view word(const char* what);    ///< next token; throws at the end
+    bool at_end();                            ///< only whitespace left
+    std::string_view word(const char* what);  ///< next token; throws at the end
     long long integer(const char* what);
     double real(const char* what);
-    std::string_view rest_of_line();            ///< up to the end of the current line
+    std::string_view rest_of_line();  ///< up to the end of the current line
     void skip_line();
     [[noreturn]] void fail(const std::string& message) const;  ///< InputError "file:line: ..."
     const std::string& text() const { return text_; }

@@ -20,21 +20,36 @@ constexpr int kGmshTet = 4;
 /// Nodes per element of the Gmsh element types a reader may meet (0 = unknown).
 int gmsh_nodes_per_element(long long type) {
     switch (type) {
-        case 1: return 2;    // line
-        case 2: return 3;    // triangle
-        case 3: return 4;    // quadrangle
-        case 4: return 4;    // tetrahedron
-        case 5: return 8;    // hexahedron
-        case 6: return 6;    // prism
-        case 7: return 5;    // pyramid
-        case 8: return 3;    // line3
-        case 9: return 6;    // triangle6
-        case 10: return 9;   // quadrangle9
-        case 11: return 10;  // tetrahedron10
-        case 15: return 1;   // point
-        case 16: return 8;   // quadrangle8
-        case 17: return 20;  // hexahedron20
-        default: return 0;
+        case 1:
+            return 2;  // line
+        case 2:
+            return 3;  // triangle
+        case 3:
+            return 4;  // quadrangle
+        case 4:
+            return 4;  // tetrahedron
+        case 5:
+            return 8;  // hexahedron
+        case 6:
+            return 6;  // prism
+        case 7:
+            return 5;  // pyramid
+        case 8:
+            return 3;  // line3
+        case 9:
+            return 6;  // triangle6
+        case 10:
+            return 9;  // quadrangle9
+        case 11:
+            return 10;  // tetrahedron10
+        case 15:
+            return 1;  // point
+        case 16:
+            return 8;  // quadrangle8
+        case 17:
+            return 20;  // hexahedron20
+        default:
+            return 0;
     }
 }
 
@@ -91,8 +106,10 @@ void write_msh41(const core::TetMesh& mesh, const std::string& path, const Label
             write_bbox(out, mesh, mesh.tets, r.tets);
             std::vector<int> bounding;
             for (const auto& g : surfaces) {
-                if (g.in == r.label) bounding.push_back(g.tag);
-                else if (g.out == r.label) bounding.push_back(-g.tag);
+                if (g.in == r.label)
+                    bounding.push_back(g.tag);
+                else if (g.out == r.label)
+                    bounding.push_back(-g.tag);
             }
             out << " 1 " << r.label << ' ' << bounding.size();
             for (int b : bounding) out << ' ' << b;
@@ -111,21 +128,22 @@ void write_msh41(const core::TetMesh& mesh, const std::string& path, const Label
         out << "$EndNodes\n";
         // Elements: tet t has tag t + 1, face f has tag tets + f + 1.
         const std::size_t nt = mesh.tet_count(), nf = mesh.face_count();
-        out << "$Elements\n" << surfaces.size() + regions.size() << ' ' << nt + nf << " 1 " << nt + nf << '\n';
+        out << "$Elements\n"
+            << surfaces.size() + regions.size() << ' ' << nt + nf << " 1 " << nt + nf << '\n';
         for (const auto& g : surfaces) {
             out << "2 " << g.tag << ' ' << kGmshTriangle << ' ' << g.faces.size() << '\n';
             for (std::int32_t f : g.faces) {
                 const auto& tri = mesh.faces[static_cast<std::size_t>(f)];
-                out << nt + static_cast<std::size_t>(f) + 1 << ' ' << tri[0] + 1 << ' ' << tri[1] + 1 << ' '
-                    << tri[2] + 1 << '\n';
+                out << nt + static_cast<std::size_t>(f) + 1 << ' ' << tri[0] + 1 << ' '
+                    << tri[1] + 1 << ' ' << tri[2] + 1 << '\n';
             }
         }
         for (const auto& r : regions) {
             out << "3 " << r.label << ' ' << kGmshTet << ' ' << r.tets.size() << '\n';
             for (std::int32_t t : r.tets) {
                 const auto& tet = mesh.tets[static_cast<std::size_t>(t)];
-                out << static_cast<std::size_t>(t) + 1 << ' ' << tet[0] + 1 << ' ' << tet[1] + 1 << ' '
-                    << tet[2] + 1 << ' ' << tet[3] + 1 << '\n';
+                out << static_cast<std::size_t>(t) + 1 << ' ' << tet[0] + 1 << ' ' << tet[1] + 1
+                    << ' ' << tet[2] + 1 << ' ' << tet[3] + 1 << '\n';
             }
         }
         out << "$EndElements\n";
@@ -157,13 +175,13 @@ void write_msh22(const core::TetMesh& mesh, const std::string& path, const Label
         for (std::size_t t = 0; t < nt; ++t) {
             const auto& tet = mesh.tets[t];
             const core::Label r = mesh.region[t];
-            out << t + 1 << ' ' << kGmshTet << " 2 " << r << ' ' << r << ' ' << tet[0] + 1 << ' ' << tet[1] + 1
-                << ' ' << tet[2] + 1 << ' ' << tet[3] + 1 << '\n';
+            out << t + 1 << ' ' << kGmshTet << " 2 " << r << ' ' << r << ' ' << tet[0] + 1 << ' '
+                << tet[1] + 1 << ' ' << tet[2] + 1 << ' ' << tet[3] + 1 << '\n';
         }
         for (std::size_t f = 0; f < nf; ++f) {
             const auto& tri = mesh.faces[f];
-            out << nt + f + 1 << ' ' << kGmshTriangle << " 2 " << face_tag[f] << ' ' << face_tag[f] << ' '
-                << tri[0] + 1 << ' ' << tri[1] + 1 << ' ' << tri[2] + 1 << '\n';
+            out << nt + f + 1 << ' ' << kGmshTriangle << " 2 " << face_tag[f] << ' ' << face_tag[f]
+                << ' ' << tri[0] + 1 << ' ' << tri[1] + 1 << ' ' << tri[2] + 1 << '\n';
         }
         out << "$EndElements\n";
         out.close();
@@ -179,15 +197,17 @@ RawMesh read_msh(const std::string& path) {
     in.integer("the data size");
     if (in.word("$EndMeshFormat") != "$EndMeshFormat") in.fail("expected $EndMeshFormat");
     if (file_type != 0)
-        in.fail("binary .msh files are not supported; save it as ASCII (gmsh FILE -0 -save -o out.msh)");
+        in.fail(
+            "binary .msh files are not supported; save it as ASCII (gmsh FILE -0 -save -o "
+            "out.msh)");
     const bool v4 = version == "4.1";
     if (!v4 && version.rfind("2.", 0) != 0)
         in.fail("MSH version " + version + " is not supported (4.1 and 2.x are)");
     raw.format = v4 ? "msh 4.1" : "msh " + version;
 
-    std::map<std::pair<int, long long>, std::string> physical_names;   // (dim, tag) -> name
-    std::map<std::pair<int, long long>, long long> entity_physical;    // (dim, entity) -> tag
-    std::map<long long, std::int32_t> node_index;                      // node tag -> index
+    std::map<std::pair<int, long long>, std::string> physical_names;  // (dim, tag) -> name
+    std::map<std::pair<int, long long>, long long> entity_physical;   // (dim, entity) -> tag
+    std::map<long long, std::int32_t> node_index;                     // node tag -> index
     struct Element {
         long long tag;
         std::array<long long, 4> nodes;
@@ -196,14 +216,18 @@ RawMesh read_msh(const std::string& path) {
     std::vector<Element> tets, tris;
     std::vector<std::pair<long long, std::array<double, 3>>> nodes;
 
-    auto add_element = [&](int type, long long tag, long long region, const std::vector<long long>& v) {
-        if (type == 4 || type == 11) tets.push_back({tag, {v[0], v[1], v[2], v[3]}, region});
-        else if (type == 2 || type == 9) tris.push_back({tag, {v[0], v[1], v[2], 0}, region});
+    auto add_element = [&](int type, long long tag, long long region,
+                           const std::vector<long long>& v) {
+        if (type == 4 || type == 11)
+            tets.push_back({tag, {v[0], v[1], v[2], v[3]}, region});
+        else if (type == 2 || type == 9)
+            tris.push_back({tag, {v[0], v[1], v[2], 0}, region});
     };
 
     while (!in.at_end()) {
         const std::string section(in.word("a section"));
-        if (section.empty() || section[0] != '$') in.fail("expected a $Section, found \"" + section + "\"");
+        if (section.empty() || section[0] != '$')
+            in.fail("expected a $Section, found \"" + section + "\"");
         const std::string end = "$End" + section.substr(1);
         if (section == "$PhysicalNames") {
             const long long n = in.integer("the number of physical names");
@@ -211,7 +235,8 @@ RawMesh read_msh(const std::string& path) {
                 const int dim = static_cast<int>(in.integer("a physical dimension"));
                 const long long tag = in.integer("a physical tag");
                 std::string name(in.rest_of_line());
-                if (name.size() >= 2 && name.front() == '"' && name.back() == '"') name = name.substr(1, name.size() - 2);
+                if (name.size() >= 2 && name.front() == '"' && name.back() == '"')
+                    name = name.substr(1, name.size() - 2);
                 physical_names[{dim, tag}] = name;
             }
         } else if (section == "$Entities" && v4) {
@@ -220,7 +245,8 @@ RawMesh read_msh(const std::string& path) {
             for (int dim = 0; dim < 4; ++dim)
                 for (long long i = 0; i < count[dim]; ++i) {
                     const long long tag = in.integer("an entity tag");
-                    for (int k = 0; k < (dim == 0 ? 3 : 6); ++k) in.real("a bounding box coordinate");
+                    for (int k = 0; k < (dim == 0 ? 3 : 6); ++k)
+                        in.real("a bounding box coordinate");
                     const long long np = in.integer("the number of physical tags");
                     for (long long k = 0; k < np; ++k) {
                         const long long p = in.integer("a physical tag");
@@ -244,12 +270,12 @@ RawMesh read_msh(const std::string& path) {
                     const long long parametric = in.integer("the parametric flag");
                     const long long n = in.integer("the number of nodes in the block");
                     const std::size_t first = nodes.size();
-                    for (long long i = 0; i < n; ++i) nodes.push_back({in.integer("a node tag"), {}});
+                    for (long long i = 0; i < n; ++i)
+                        nodes.push_back({in.integer("a node tag"), {}});
                     for (long long i = 0; i < n; ++i) {
                         auto& p = nodes[first + static_cast<std::size_t>(i)].second;
                         for (double& c : p) c = in.real("a node coordinate");
-                        if (parametric)
-                            in.fail("parametric node coordinates are not supported");
+                        if (parametric) in.fail("parametric node coordinates are not supported");
                     }
                 }
             } else {
@@ -301,7 +327,8 @@ RawMesh read_msh(const std::string& path) {
                     if (nn == 0) in.fail("unknown element type " + std::to_string(type));
                     v.resize(static_cast<std::size_t>(nn));
                     for (auto& x : v) x = in.integer("a node number");
-                    add_element(static_cast<int>(type), tag, physical != 0 ? physical : elementary, v);
+                    add_element(static_cast<int>(type), tag, physical != 0 ? physical : elementary,
+                                v);
                 }
             }
         } else {
@@ -315,7 +342,8 @@ RawMesh read_msh(const std::string& path) {
         if (in.word(end.c_str()) != end) in.fail("expected " + end);
     }
 
-    std::sort(nodes.begin(), nodes.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+    std::sort(nodes.begin(), nodes.end(),
+              [](const auto& a, const auto& b) { return a.first < b.first; });
     raw.mesh.xyz.reserve(3 * nodes.size());
     for (std::size_t i = 0; i < nodes.size(); ++i) {
         if (!node_index.emplace(nodes[i].first, static_cast<std::int32_t>(i)).second)
@@ -325,15 +353,19 @@ RawMesh read_msh(const std::string& path) {
     // Node tags are usually 1..n: a dense table then, else the map.
     const long long max_tag = nodes.empty() ? 0 : nodes.back().first;
     std::vector<std::int32_t> dense;
-    if (!nodes.empty() && nodes.front().first >= 0 && max_tag <= 4 * static_cast<long long>(nodes.size()) + 16) {
+    if (!nodes.empty() && nodes.front().first >= 0 &&
+        max_tag <= 4 * static_cast<long long>(nodes.size()) + 16) {
         dense.assign(static_cast<std::size_t>(max_tag) + 1, -1);
         for (const auto& [tag, index] : node_index) dense[static_cast<std::size_t>(tag)] = index;
     }
     auto index_of = [&](long long tag) {
-        if (!dense.empty() && tag >= 0 && tag <= max_tag && dense[static_cast<std::size_t>(tag)] >= 0)
+        if (!dense.empty() && tag >= 0 && tag <= max_tag &&
+            dense[static_cast<std::size_t>(tag)] >= 0)
             return dense[static_cast<std::size_t>(tag)];
         const auto it = node_index.find(tag);
-        if (it == node_index.end()) in.fail("an element refers to node " + std::to_string(tag) + ", which is not in $Nodes");
+        if (it == node_index.end())
+            in.fail("an element refers to node " + std::to_string(tag) +
+                    ", which is not in $Nodes");
         return it->second;
     };
     auto by_tag = [](const Element& a, const Element& b) { return a.tag < b.tag; };
@@ -342,15 +374,17 @@ RawMesh read_msh(const std::string& path) {
     std::set<long long> labels;
     for (const auto& e : tets) {
         if (e.region <= 0 || e.region > std::numeric_limits<core::Label>::max())
-            in.fail("tetrahedron " + std::to_string(e.tag) + " has region tag " + std::to_string(e.region) +
-                    " (regions must be > 0)");
-        raw.mesh.add_tet(index_of(e.nodes[0]), index_of(e.nodes[1]), index_of(e.nodes[2]), index_of(e.nodes[3]),
-                         static_cast<core::Label>(e.region));
+            in.fail("tetrahedron " + std::to_string(e.tag) + " has region tag " +
+                    std::to_string(e.region) + " (regions must be > 0)");
+        raw.mesh.add_tet(index_of(e.nodes[0]), index_of(e.nodes[1]), index_of(e.nodes[2]),
+                         index_of(e.nodes[3]), static_cast<core::Label>(e.region));
         labels.insert(e.region);
     }
-    for (const auto& e : tris) raw.triangles.push_back({index_of(e.nodes[0]), index_of(e.nodes[1]), index_of(e.nodes[2])});
+    for (const auto& e : tris)
+        raw.triangles.push_back({index_of(e.nodes[0]), index_of(e.nodes[1]), index_of(e.nodes[2])});
     for (const auto& [key, name] : physical_names)
-        if (key.first == 3 && labels.count(key.second) && name != "region_" + std::to_string(key.second))
+        if (key.first == 3 && labels.count(key.second) &&
+            name != "region_" + std::to_string(key.second))
             raw.names.set(static_cast<core::Label>(key.second), name);
     return raw;
 }

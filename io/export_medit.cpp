@@ -22,11 +22,13 @@ void write_medit(const core::TetMesh& mesh, const std::string& path, const Label
         out << "# frontmesh: tetrahedron reference = region label, triangle reference = surface\n";
         for (const auto& r : regions) out << "# region " << r.label << ' ' << r.name << '\n';
         for (const auto& g : surfaces)
-            out << "# surface " << g.tag << ' ' << g.name << " (region_in " << g.in << ", region_out " << g.out << ")\n";
+            out << "# surface " << g.tag << ' ' << g.name << " (region_in " << g.in
+                << ", region_out " << g.out << ")\n";
         const std::size_t n = mesh.node_count();
         out << "Vertices\n" << n << '\n';
         for (std::size_t v = 0; v < n; ++v)
-            out << mesh.xyz[3 * v] << ' ' << mesh.xyz[3 * v + 1] << ' ' << mesh.xyz[3 * v + 2] << " 0\n";
+            out << mesh.xyz[3 * v] << ' ' << mesh.xyz[3 * v + 1] << ' ' << mesh.xyz[3 * v + 2]
+                << " 0\n";
         out << "Triangles\n" << mesh.face_count() << '\n';
         for (std::size_t f = 0; f < mesh.face_count(); ++f) {
             const auto& t = mesh.faces[f];
@@ -35,7 +37,8 @@ void write_medit(const core::TetMesh& mesh, const std::string& path, const Label
         out << "Tetrahedra\n" << mesh.tet_count() << '\n';
         for (std::size_t t = 0; t < mesh.tet_count(); ++t) {
             const auto& q = mesh.tets[t];
-            out << q[0] + 1 << ' ' << q[1] + 1 << ' ' << q[2] + 1 << ' ' << q[3] + 1 << ' ' << mesh.region[t] << '\n';
+            out << q[0] + 1 << ' ' << q[1] + 1 << ' ' << q[2] + 1 << ' ' << q[3] + 1 << ' '
+                << mesh.region[t] << '\n';
         }
         out << "End\n";
         out.close();
@@ -47,11 +50,22 @@ RawMesh read_medit(const std::string& path) {
     RawMesh raw;
     raw.format = "mesh";
     // Sections to skip: keyword -> numbers per entity.
-    static const std::map<std::string, int> skip = {
-        {"Edges", 3},        {"Quadrilaterals", 5}, {"Hexahedra", 9},        {"Hexaedra", 9},
-        {"Prisms", 7},       {"Pyramids", 6},       {"Corners", 1},          {"RequiredVertices", 1},
-        {"Ridges", 1},       {"RequiredEdges", 1},  {"RequiredTriangles", 1}, {"Normals", 3},
-        {"NormalAtVertices", 2}, {"Tangents", 3},   {"TangentAtVertices", 2}, {"Identifier", 0}};
+    static const std::map<std::string, int> skip = {{"Edges", 3},
+                                                    {"Quadrilaterals", 5},
+                                                    {"Hexahedra", 9},
+                                                    {"Hexaedra", 9},
+                                                    {"Prisms", 7},
+                                                    {"Pyramids", 6},
+                                                    {"Corners", 1},
+                                                    {"RequiredVertices", 1},
+                                                    {"Ridges", 1},
+                                                    {"RequiredEdges", 1},
+                                                    {"RequiredTriangles", 1},
+                                                    {"Normals", 3},
+                                                    {"NormalAtVertices", 2},
+                                                    {"Tangents", 3},
+                                                    {"TangentAtVertices", 2},
+                                                    {"Identifier", 0}};
     int dimension = 0;
     bool seen_version = false;
     std::map<long long, std::string> region_names;
@@ -75,17 +89,22 @@ RawMesh read_medit(const std::string& path) {
         }
         if (key == "MeshVersionFormatted") {
             const long long v = in.integer("the mesh version");
-            if (v < 1 || v > 4) in.fail("MeshVersionFormatted " + std::to_string(v) + " is not supported");
+            if (v < 1 || v > 4)
+                in.fail("MeshVersionFormatted " + std::to_string(v) + " is not supported");
             seen_version = true;
         } else if (key == "Dimension") {
             dimension = static_cast<int>(in.integer("the dimension"));
-            if (dimension != 3) in.fail("only 3-D meshes are supported (Dimension " + std::to_string(dimension) + ")");
+            if (dimension != 3)
+                in.fail("only 3-D meshes are supported (Dimension " + std::to_string(dimension) +
+                        ")");
         } else if (key == "Vertices") {
-            if (!seen_version || dimension != 3) in.fail("Vertices before MeshVersionFormatted / Dimension 3");
+            if (!seen_version || dimension != 3)
+                in.fail("Vertices before MeshVersionFormatted / Dimension 3");
             const long long n = in.integer("the number of vertices");
             raw.mesh.xyz.reserve(3 * static_cast<std::size_t>(std::max(0LL, n)));
             for (long long i = 0; i < n; ++i) {
-                const double x = in.real("a coordinate"), y = in.real("a coordinate"), z = in.real("a coordinate");
+                const double x = in.real("a coordinate"), y = in.real("a coordinate"),
+                             z = in.real("a coordinate");
                 in.integer("a vertex reference");
                 raw.mesh.add_node({x, y, z});
             }
@@ -104,8 +123,8 @@ RawMesh read_medit(const std::string& path) {
                 for (auto& v : t) v = static_cast<std::int32_t>(in.integer("a vertex number") - 1);
                 const long long ref = in.integer("a tetrahedron reference");
                 if (ref <= 0 || ref > 2147483647LL)
-                    in.fail("tetrahedron " + std::to_string(i + 1) + " has reference " + std::to_string(ref) +
-                            " (regions must be > 0)");
+                    in.fail("tetrahedron " + std::to_string(i + 1) + " has reference " +
+                            std::to_string(ref) + " (regions must be > 0)");
                 raw.mesh.add_tet(t[0], t[1], t[2], t[3], static_cast<core::Label>(ref));
                 labels.insert(ref);
             }

@@ -21,7 +21,9 @@
 // ITK 5.2 bundles Eigen 3.3 and includes its Eigenvalues module from itkImageIOBase.h; with
 // the system Eigen 3.4 Core already included that mix does not compile. Including the system
 // module first makes ITK's copy a no-op (same include guard), so one Eigen is used throughout.
+// (Its own include block, so that clang-format keeps it first.)
 #include <Eigen/Eigenvalues>
+
 #include <itkGDCMImageIO.h>
 #include <itkGDCMSeriesFileNames.h>
 #include <itkImage.h>

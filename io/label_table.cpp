@@ -102,9 +102,12 @@ void LabelTable::rebuild_safe_names() const {
 std::string sanitized_name(const std::string& name) {
     std::string s;
     for (const char c : name) {
-        const bool ok = std::isalnum(static_cast<unsigned char>(c)) && static_cast<unsigned char>(c) < 128;
-        if (ok) s += c;
-        else if (!s.empty() && s.back() != '_') s += '_';
+        const bool ok =
+            std::isalnum(static_cast<unsigned char>(c)) && static_cast<unsigned char>(c) < 128;
+        if (ok)
+            s += c;
+        else if (!s.empty() && s.back() != '_')
+            s += '_';
     }
     while (!s.empty() && s.back() == '_') s.pop_back();
     if (s.empty()) return "region";
@@ -155,7 +158,8 @@ LabelTable read_label_table(const std::string& path) {
             // The words after the id up to the first number (R G B, an atlas' own code).
             name = f[1];
             long long ignored = 0;
-            for (std::size_t i = 2; i < f.size() && !whole_number(f[i], ignored); ++i) name += " " + f[i];
+            for (std::size_t i = 2; i < f.size() && !whole_number(f[i], ignored); ++i)
+                name += " " + f[i];
         }
         if (name.empty()) FM_THROW(InputError, where + "label " + f[0] + " has no name");
         const auto label = static_cast<core::Label>(id);
@@ -171,17 +175,18 @@ LabelTable read_label_table(const std::string& path) {
 std::string label_table_beside(const std::string& image_path) {
     namespace fs = std::filesystem;
     fs::path p(image_path);
-    if (p.extension() == ".gz") p.replace_extension();   // aal.nii.gz -> aal.nii
+    if (p.extension() == ".gz") p.replace_extension();  // aal.nii.gz -> aal.nii
     fs::path stem = p;
-    stem.replace_extension();                           // aal.nii -> aal
+    stem.replace_extension();  // aal.nii -> aal
     std::vector<fs::path> candidates;
     for (const char* ext : {".txt", ".lut"}) {
         candidates.push_back(fs::path(p.string() + ext));
         candidates.push_back(fs::path(stem.string() + ext));
     }
-    std::stable_sort(candidates.begin(), candidates.end(), [](const fs::path& a, const fs::path& b) {
-        return a.extension() == ".txt" && b.extension() != ".txt";
-    });
+    std::stable_sort(candidates.begin(), candidates.end(),
+                     [](const fs::path& a, const fs::path& b) {
+                         return a.extension() == ".txt" && b.extension() != ".txt";
+                     });
     for (const auto& c : candidates)
         if (fs::is_regular_file(c) && is_text_file(c.string())) return c.string();
     return {};

@@ -17,10 +17,10 @@
 #include <tbb/parallel_for.h>
 #include <vtkAlgorithm.h>
 #include <vtkCellArray.h>
-#include <vtkCharArray.h>
 #include <vtkCellArrayIterator.h>
 #include <vtkCellData.h>
 #include <vtkCellTypes.h>
+#include <vtkCharArray.h>
 #include <vtkCommand.h>
 #include <vtkDataArray.h>
 #include <vtkDoubleArray.h>
@@ -164,7 +164,8 @@ vtkSmartPointer<vtkUnstructuredGrid> surface_grid(const SurfaceNetwork& surface,
     FM_CHECK(surface.xyz.size() == 3 * nv);
     FM_CHECK(surface.region_in.size() == nf && surface.region_out.size() == nf);
 
-    const vtkSmartPointer<vtkUnstructuredGrid> grid = new_grid(surface.xyz, surface.faces, VTK_TRIANGLE);
+    const vtkSmartPointer<vtkUnstructuredGrid> grid =
+        new_grid(surface.xyz, surface.faces, VTK_TRIANGLE);
 
     vtkNew<vtkIntArray> region_in;
     vtkNew<vtkIntArray> region_out;
@@ -345,7 +346,8 @@ void copy_field_strings(vtkDataObject* data, FieldStrings* fields) {
         vtkAbstractArray* array = fd->GetAbstractArray(i);
         if (array == nullptr || array->GetName() == nullptr) continue;
         if (auto* strings = vtkStringArray::SafeDownCast(array)) {
-            if (strings->GetNumberOfValues() > 0) (*fields)[array->GetName()] = strings->GetValue(0);
+            if (strings->GetNumberOfValues() > 0)
+                (*fields)[array->GetName()] = strings->GetValue(0);
         } else if ((array->GetDataType() == VTK_CHAR || array->GetDataType() == VTK_SIGNED_CHAR) &&
                    array->GetNumberOfComponents() == 1) {
             // Written as vtkCharArray, read back by VTK's XML reader as signed chars.
@@ -697,7 +699,6 @@ void write_pvd(const std::string& path,
     xml << "  </Collection>\n</VTKFile>\n";
     write_text_atomically(path, xml.str());
 }
-
 
 // ---------------------------------------------------------------------------------------
 // Tetrahedral meshes

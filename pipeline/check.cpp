@@ -25,15 +25,17 @@ using Key = std::array<std::int32_t, 3>;
 constexpr int kFace[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
 
 struct FaceOcc {
-    Key key;             // sorted nodes
-    std::int32_t occ;    // 4 * tet + k
+    Key key;                                  // sorted nodes
+    std::int32_t occ;                         // 4 * tet + k
     bool operator<(const FaceOcc& o) const {  // by hand: std::array's == is a memcmp call
         if (key[0] != o.key[0]) return key[0] < o.key[0];
         if (key[1] != o.key[1]) return key[1] < o.key[1];
         if (key[2] != o.key[2]) return key[2] < o.key[2];
         return occ < o.occ;
     }
-    bool same_face(const FaceOcc& o) const { return key[0] == o.key[0] && key[1] == o.key[1] && key[2] == o.key[2]; }
+    bool same_face(const FaceOcc& o) const {
+        return key[0] == o.key[0] && key[1] == o.key[1] && key[2] == o.key[2];
+    }
 };
 
 Key face_of(const core::TetMesh& mesh, std::int32_t occ) {
@@ -60,7 +62,8 @@ struct UnionFind {
     explicit UnionFind(std::size_t n) : parent(n) { std::iota(parent.begin(), parent.end(), 0); }
     std::int32_t find(std::int32_t a) {
         while (parent[static_cast<std::size_t>(a)] != a) {
-            parent[static_cast<std::size_t>(a)] = parent[static_cast<std::size_t>(parent[static_cast<std::size_t>(a)])];
+            parent[static_cast<std::size_t>(a)] =
+                parent[static_cast<std::size_t>(parent[static_cast<std::size_t>(a)])];
             a = parent[static_cast<std::size_t>(a)];
         }
         return a;
@@ -75,8 +78,8 @@ struct UnionFind {
 /// Topology of the boundary faces (faces of one tet), as meshcheck.py's surface_topology.
 void boundary_topology(const std::vector<Key>& faces, RefereeFigures& r) {
     struct EdgeOcc {
-        std::int32_t a, b;   // sorted
-        std::int32_t corner; // 3 f + j: directed edge from corner j to j + 1
+        std::int32_t a, b;    // sorted
+        std::int32_t corner;  // 3 f + j: directed edge from corner j to j + 1
         bool operator<(const EdgeOcc& o) const {
             return a != o.a ? a < o.a : b != o.b ? b < o.b : corner < o.corner;
         }
@@ -85,8 +88,10 @@ void boundary_topology(const std::vector<Key>& faces, RefereeFigures& r) {
     edges.reserve(3 * faces.size());
     for (std::size_t f = 0; f < faces.size(); ++f)
         for (int j = 0; j < 3; ++j) {
-            const std::int32_t u = faces[f][static_cast<std::size_t>(j)], v = faces[f][static_cast<std::size_t>((j + 1) % 3)];
-            edges.push_back({std::min(u, v), std::max(u, v), static_cast<std::int32_t>(3 * f + static_cast<std::size_t>(j))});
+            const std::int32_t u = faces[f][static_cast<std::size_t>(j)],
+                               v = faces[f][static_cast<std::size_t>((j + 1) % 3)];
+            edges.push_back({std::min(u, v), std::max(u, v),
+                             static_cast<std::int32_t>(3 * f + static_cast<std::size_t>(j))});
         }
     tbb::parallel_sort(edges.begin(), edges.end());
     UnionFind corners(3 * faces.size());  // corners joined across manifold edges
@@ -98,11 +103,14 @@ void boundary_topology(const std::vector<Key>& faces, RefereeFigures& r) {
         const std::size_t n = j - i;
         if (n == 1) ++r.open_edges;
         if (n > 2) ++r.nonmanifold_edges;
-        for (std::size_t k = i + 1; k < j; ++k) patches.unite(edges[i].corner / 3, edges[k].corner / 3);
+        for (std::size_t k = i + 1; k < j; ++k)
+            patches.unite(edges[i].corner / 3, edges[k].corner / 3);
         if (n == 2) {
             const std::int32_t e1 = edges[i].corner, e2 = edges[i + 1].corner;
             // Corner of e1's start vertex meets the corner of the same vertex in e2.
-            const auto start = [&](std::int32_t c) { return faces[static_cast<std::size_t>(c / 3)][static_cast<std::size_t>(c % 3)]; };
+            const auto start = [&](std::int32_t c) {
+                return faces[static_cast<std::size_t>(c / 3)][static_cast<std::size_t>(c % 3)];
+            };
             const bool same_dir = start(e1) == start(e2);
             if (same_dir) ++r.misoriented_edges;
             corners.unite(e1, same_dir ? e2 : next(e2));
@@ -125,14 +133,16 @@ void boundary_topology(const std::vector<Key>& faces, RefereeFigures& r) {
     }
     std::size_t components = 0;
     for (std::size_t f = 0; f < faces.size(); ++f)
-        if (patches.find(static_cast<std::int32_t>(f)) == static_cast<std::int32_t>(f)) ++components;
+        if (patches.find(static_cast<std::int32_t>(f)) == static_cast<std::int32_t>(f))
+            ++components;
     r.boundary_components = components;
 }
 
 Eigen::Vector3d to_vec(const double* p) { return {p[0], p[1], p[2]}; }
 
 PreservationFigures preservation(const core::TetMesh& mesh, const std::vector<Key>& all_faces,
-                                 const std::vector<Key>& surface_faces, const core::SurfaceNetwork& ref) {
+                                 const std::vector<Key>& surface_faces,
+                                 const core::SurfaceNetwork& ref) {
     PreservationFigures p;
     const std::size_t nr = ref.xyz.size() / 3;
     p.ref_vertices = nr;
@@ -150,7 +160,8 @@ PreservationFigures preservation(const core::TetMesh& mesh, const std::vector<Ke
     using Cell = std::array<std::int64_t, 3>;
     struct CellHash {
         std::size_t operator()(const Cell& c) const noexcept {
-            return static_cast<std::size_t>(c[0] * 73856093LL ^ c[1] * 19349663LL ^ c[2] * 83492791LL);
+            return static_cast<std::size_t>(c[0] * 73856093LL ^ c[1] * 19349663LL ^
+                                            c[2] * 83492791LL);
         }
     };
     auto cell_of = [&](const Eigen::Vector3d& x) {
@@ -162,7 +173,8 @@ PreservationFigures preservation(const core::TetMesh& mesh, const std::vector<Ke
     grid.reserve(mesh.node_count());
     for (std::size_t v = 0; v < mesh.node_count(); ++v) {
         const Eigen::Vector3d x = mesh.point(static_cast<std::int32_t>(v));
-        if ((x.array() < lo.array() - 2 * h).any() || (x.array() > hi.array() + 2 * h).any()) continue;
+        if ((x.array() < lo.array() - 2 * h).any() || (x.array() > hi.array() + 2 * h).any())
+            continue;
         grid.emplace(cell_of(x), static_cast<std::int32_t>(v));
     }
     std::vector<std::int32_t> match(nr, -1);
@@ -191,7 +203,8 @@ PreservationFigures preservation(const core::TetMesh& mesh, const std::vector<Ke
     std::sort(surf.begin(), surf.end());
     std::vector<Key> ref_keys;
     for (const auto& f : ref.faces) {
-        const std::int32_t a = match[static_cast<std::size_t>(f[0])], b = match[static_cast<std::size_t>(f[1])],
+        const std::int32_t a = match[static_cast<std::size_t>(f[0])],
+                           b = match[static_cast<std::size_t>(f[1])],
                            c = match[static_cast<std::size_t>(f[2])];
         if (a < 0 || b < 0 || c < 0) continue;
         const Key k = sorted({a, b, c});
@@ -215,7 +228,8 @@ std::string num(double v, int precision = 6) {
 
 std::string percent(std::size_t part, std::size_t whole) {
     std::ostringstream s;
-    s << std::fixed << std::setprecision(3) << (whole ? 100.0 * double(part) / double(whole) : 0.0) << '%';
+    s << std::fixed << std::setprecision(3) << (whole ? 100.0 * double(part) / double(whole) : 0.0)
+      << '%';
     return s.str();
 }
 
@@ -244,9 +258,11 @@ std::string json_array(const std::array<std::size_t, N>& a) {
 std::string quality_json(const volume::TetQuality& q) {
     std::ostringstream s;
     s << "{\"tets\": " << q.tets << ", \"skewness_mean\": " << num(q.mean_skewness)
-      << ", \"skewness_max\": " << num(q.max_skewness) << ", \"skewness_over_0_8\": " << q.skewness_over_08
-      << ", \"skewness_frac_gt_0_8\": " << num(q.tets ? double(q.skewness_over_08) / double(q.tets) : 0.0)
-      << ", \"min_dihedral_deg\": " << num(q.min_dihedral_deg) << ", \"max_dihedral_deg\": " << num(q.max_dihedral_deg)
+      << ", \"skewness_max\": " << num(q.max_skewness)
+      << ", \"skewness_over_0_8\": " << q.skewness_over_08 << ", \"skewness_frac_gt_0_8\": "
+      << num(q.tets ? double(q.skewness_over_08) / double(q.tets) : 0.0)
+      << ", \"min_dihedral_deg\": " << num(q.min_dihedral_deg)
+      << ", \"max_dihedral_deg\": " << num(q.max_dihedral_deg)
       << ", \"skewness_histogram_0_to_1\": " << json_array(q.skewness_histogram)
       << ", \"min_dihedral_histogram_10deg\": " << json_array(q.dihedral_histogram) << "}";
     return s.str();
@@ -266,15 +282,18 @@ MeshReport check_mesh(const core::TetMesh& mesh, const core::SurfaceNetwork* ref
     double abs_sum = 0.0;
     for (std::size_t t = 0; t < nt; ++t) {
         const auto& q = mesh.tets[t];
-        vol[t] = core::tet_signed_volume(mesh.point(q[0]), mesh.point(q[1]), mesh.point(q[2]), mesh.point(q[3]));
+        vol[t] = core::tet_signed_volume(mesh.point(q[0]), mesh.point(q[1]), mesh.point(q[2]),
+                                         mesh.point(q[3]));
         abs_sum += std::abs(vol[t]);
         r.volume += vol[t];
     }
     const double mean_abs = abs_sum / double(nt);
     for (std::size_t t = 0; t < nt; ++t) {
         const bool degenerate = std::abs(vol[t]) < 1e-12 * mean_abs;
-        if (degenerate) ++r.degenerate_tets;
-        else if (vol[t] < 0) ++r.inverted_tets;
+        if (degenerate)
+            ++r.degenerate_tets;
+        else if (vol[t] < 0)
+            ++r.inverted_tets;
     }
 
     // Duplicate nodes among the used ones (identical coordinates).
@@ -299,7 +318,9 @@ MeshReport check_mesh(const core::TetMesh& mesh, const core::SurfaceNetwork* ref
         }
     tbb::parallel_sort(occ.begin(), occ.end());
     std::vector<Key> boundary, all_faces, surface_faces;
-    auto opposite = [&](std::int32_t o) { return mesh.tets[static_cast<std::size_t>(o / 4)][static_cast<std::size_t>(o % 4)]; };
+    auto opposite = [&](std::int32_t o) {
+        return mesh.tets[static_cast<std::size_t>(o / 4)][static_cast<std::size_t>(o % 4)];
+    };
     for (std::size_t i = 0; i < occ.size();) {
         std::size_t j = i + 1;
         while (j < occ.size() && occ[j].same_face(occ[i])) ++j;
@@ -318,10 +339,12 @@ MeshReport check_mesh(const core::TetMesh& mesh, const core::SurfaceNetwork* ref
                 const Key f = face_of(mesh, a);
                 const Eigen::Vector3d p0 = mesh.point(f[0]);
                 const Eigen::Vector3d nrm = (mesh.point(f[1]) - p0).cross(mesh.point(f[2]) - p0);
-                const double sa = (mesh.point(va) - p0).dot(nrm), sb = (mesh.point(vb) - p0).dot(nrm);
+                const double sa = (mesh.point(va) - p0).dot(nrm),
+                             sb = (mesh.point(vb) - p0).dot(nrm);
                 if ((sa > 0 && sb > 0) || (sa < 0 && sb < 0)) ++r.same_side_faces;
             }
-            if (mesh.region[static_cast<std::size_t>(a / 4)] != mesh.region[static_cast<std::size_t>(b / 4)]) {
+            if (mesh.region[static_cast<std::size_t>(a / 4)] !=
+                mesh.region[static_cast<std::size_t>(b / 4)]) {
                 ++r.interface_faces;
                 surface_faces.push_back(occ[i].key);
             }
@@ -330,7 +353,8 @@ MeshReport check_mesh(const core::TetMesh& mesh, const core::SurfaceNetwork* ref
             std::vector<std::int32_t> opp;
             for (std::size_t k = i; k < j; ++k) opp.push_back(opposite(occ[k].occ));
             std::sort(opp.begin(), opp.end());
-            r.duplicate_tets += opp.size() - static_cast<std::size_t>(std::unique(opp.begin(), opp.end()) - opp.begin());
+            r.duplicate_tets += opp.size() - static_cast<std::size_t>(
+                                                 std::unique(opp.begin(), opp.end()) - opp.begin());
         }
         i = j;
     }
@@ -351,10 +375,12 @@ MeshReport check_mesh(const core::TetMesh& mesh, const core::SurfaceNetwork* ref
                 }
         c /= double(std::max<std::size_t>(n_used, 1));
         for (const auto& f : boundary) {
-            const Eigen::Vector3d q0 = mesh.point(f[0]) - c, q1 = mesh.point(f[1]) - c, q2 = mesh.point(f[2]) - c;
+            const Eigen::Vector3d q0 = mesh.point(f[0]) - c, q1 = mesh.point(f[1]) - c,
+                                  q2 = mesh.point(f[2]) - c;
             r.enclosed_volume += q0.dot(q1.cross(q2)) / 6.0;
         }
-        r.volume_rel_diff = std::abs(r.volume - r.enclosed_volume) / std::max(std::abs(r.enclosed_volume), 1e-300);
+        r.volume_rel_diff =
+            std::abs(r.volume - r.enclosed_volume) / std::max(std::abs(r.enclosed_volume), 1e-300);
     }
 
     // Triangle quality (Eq. 2) of the recorded boundary and interface faces.
@@ -370,7 +396,8 @@ MeshReport check_mesh(const core::TetMesh& mesh, const core::SurfaceNetwork* ref
         s.min_angle_deg = std::min(s.min_angle_deg, min_angle);
         // Largest angle from the law of cosines at each corner.
         const double la = (b - c).norm(), lb = (c - a).norm(), lc = (a - b).norm();
-        const std::array<std::array<double, 3>, 3> sides{{{la, lb, lc}, {lb, lc, la}, {lc, la, lb}}};
+        const std::array<std::array<double, 3>, 3> sides{
+            {{la, lb, lc}, {lb, lc, la}, {lc, la, lb}}};
         for (const auto& [x, y, z] : sides) {
             const double cosv = std::clamp((y * y + z * z - x * x) / (2 * y * z), -1.0, 1.0);
             s.max_angle_deg = std::max(s.max_angle_deg, std::acos(cosv) * 180.0 / M_PI);
@@ -405,50 +432,59 @@ std::string MeshReport::text() const {
     const auto& c = check;
     const auto& r = referee;
     const auto& q = c.quality;
-    o << "mesh      " << file << " (" << format << "): " << c.nodes << " nodes, " << c.tets << " tets, "
-      << c.region_volume.size() << " region" << (c.region_volume.size() == 1 ? "" : "s") << ", "
-      << r.boundary_faces << " boundary + " << r.interface_faces << " interface faces\n";
+    o << "mesh      " << file << " (" << format << "): " << c.nodes << " nodes, " << c.tets
+      << " tets, " << c.region_volume.size() << " region"
+      << (c.region_volume.size() == 1 ? "" : "s") << ", " << r.boundary_faces << " boundary + "
+      << r.interface_faces << " interface faces\n";
     if (read.file_triangles || read.derived_faces)
         o << "          file triangles " << read.file_triangles << " (" << read.ignored_triangles
-          << " not boundary/interface faces of the tets), faces derived from the tets " << read.derived_faces << '\n';
-    o << "validity  inverted " << r.inverted_tets << " (exact: " << c.inverted_tets << "), degenerate "
-      << r.degenerate_tets << ", non-conforming faces " << r.nonconforming_faces << ", duplicate tets "
-      << r.duplicate_tets << ", same-side interior faces " << r.same_side_faces << ", unused nodes "
-      << c.unused_nodes << ", duplicate nodes " << r.duplicate_nodes << '\n';
-    o << "boundary  closed 2-manifold " << (r.closed_manifold() ? "yes" : "NO") << " (open edges " << r.open_edges
-      << ", non-manifold edges " << r.nonmanifold_edges << ", vertices " << r.nonmanifold_vertices
-      << ", misoriented edges " << r.misoriented_edges << "), " << r.boundary_components << " component"
-      << (r.boundary_components == 1 ? "" : "s") << '\n';
-    o << "faces     recorded boundary/interface faces kept: " << (c.missing_faces == 0 && c.wrong_side_faces == 0 ? "yes" : "NO")
-      << " (missing " << c.missing_faces << ", wrong side " << c.wrong_side_faces << ", inner faces on surface "
+          << " not boundary/interface faces of the tets), faces derived from the tets "
+          << read.derived_faces << '\n';
+    o << "validity  inverted " << r.inverted_tets << " (exact: " << c.inverted_tets
+      << "), degenerate " << r.degenerate_tets << ", non-conforming faces " << r.nonconforming_faces
+      << ", duplicate tets " << r.duplicate_tets << ", same-side interior faces "
+      << r.same_side_faces << ", unused nodes " << c.unused_nodes << ", duplicate nodes "
+      << r.duplicate_nodes << '\n';
+    o << "boundary  closed 2-manifold " << (r.closed_manifold() ? "yes" : "NO") << " (open edges "
+      << r.open_edges << ", non-manifold edges " << r.nonmanifold_edges << ", vertices "
+      << r.nonmanifold_vertices << ", misoriented edges " << r.misoriented_edges << "), "
+      << r.boundary_components << " component" << (r.boundary_components == 1 ? "" : "s") << '\n';
+    o << "faces     recorded boundary/interface faces kept: "
+      << (c.missing_faces == 0 && c.wrong_side_faces == 0 ? "yes" : "NO") << " (missing "
+      << c.missing_faces << ", wrong side " << c.wrong_side_faces << ", inner faces on surface "
       << c.inner_faces_on_surface << ", open faces not recorded " << c.open_faces << ")\n";
-    o << "volume    " << num(r.volume, 9) << " mm^3, enclosed by the boundary " << num(r.enclosed_volume, 9)
-      << ", rel diff " << num(r.volume_rel_diff, 3) << '\n';
+    o << "volume    " << num(r.volume, 9) << " mm^3, enclosed by the boundary "
+      << num(r.enclosed_volume, 9) << ", rel diff " << num(r.volume_rel_diff, 3) << '\n';
     if (c.region_volume.size() > 1 || !names.empty())
         for (const auto& [label, v] : c.region_volume) {
             const auto it = c.region_quality.find(label);
             o << "  region " << label;
             if (names.has(label)) o << ' ' << names.name(label);
-            o << ": "
-              << (it != c.region_quality.end() ? it->second.tets : 0) << " tets, volume " << num(v)
-              << " mm^3, skewness > 0.8: "
-              << (it != c.region_quality.end() ? percent(it->second.skewness_over_08, it->second.tets) : "-") << '\n';
+            o << ": " << (it != c.region_quality.end() ? it->second.tets : 0) << " tets, volume "
+              << num(v) << " mm^3, skewness > 0.8: "
+              << (it != c.region_quality.end()
+                      ? percent(it->second.skewness_over_08, it->second.tets)
+                      : "-")
+              << '\n';
         }
-    o << "skewness  (Eq. 1) mean " << num(q.mean_skewness, 4) << ", max " << num(q.max_skewness, 4) << ", > 0.8: "
-      << q.skewness_over_08 << " tets (" << percent(q.skewness_over_08, q.tets) << "), histogram "
-      << json_array(q.skewness_histogram) << '\n';
-    o << "dihedral  min " << num(q.min_dihedral_deg, 4) << " deg, max " << num(q.max_dihedral_deg, 4) << " deg\n";
-    o << "surface   " << surface_quality.triangles << " triangles, eta (Eq. 2) mean " << num(surface_quality.mean_eta, 4)
-      << ", max " << num(surface_quality.max_eta, 4) << ", > 0.8: " << surface_quality.eta_over_08
-      << ", angles " << num(surface_quality.min_angle_deg, 4) << " .. " << num(surface_quality.max_angle_deg, 4)
+    o << "skewness  (Eq. 1) mean " << num(q.mean_skewness, 4) << ", max " << num(q.max_skewness, 4)
+      << ", > 0.8: " << q.skewness_over_08 << " tets (" << percent(q.skewness_over_08, q.tets)
+      << "), histogram " << json_array(q.skewness_histogram) << '\n';
+    o << "dihedral  min " << num(q.min_dihedral_deg, 4) << " deg, max "
+      << num(q.max_dihedral_deg, 4) << " deg\n";
+    o << "surface   " << surface_quality.triangles << " triangles, eta (Eq. 2) mean "
+      << num(surface_quality.mean_eta, 4) << ", max " << num(surface_quality.max_eta, 4)
+      << ", > 0.8: " << surface_quality.eta_over_08 << ", angles "
+      << num(surface_quality.min_angle_deg, 4) << " .. " << num(surface_quality.max_angle_deg, 4)
       << " deg\n";
     if (preservation) {
         const auto& p = *preservation;
-        o << "reference " << reference << ": " << p.ref_triangles_in_mesh << " of " << p.ref_triangles
-          << " triangles are mesh faces (" << p.ref_triangles_on_surface << " on the boundary/interfaces), "
-          << p.mesh_surface_faces_in_ref << " of " << p.mesh_surface_faces
-          << " mesh boundary/interface faces are reference triangles: preserved " << (p.preserved() ? "yes" : "NO")
-          << '\n';
+        o << "reference " << reference << ": " << p.ref_triangles_in_mesh << " of "
+          << p.ref_triangles << " triangles are mesh faces (" << p.ref_triangles_on_surface
+          << " on the boundary/interfaces), " << p.mesh_surface_faces_in_ref << " of "
+          << p.mesh_surface_faces
+          << " mesh boundary/interface faces are reference triangles: preserved "
+          << (p.preserved() ? "yes" : "NO") << '\n';
     }
     o << "RESULT    " << (valid() ? "VALID" : "INVALID") << '\n';
     return o.str();
@@ -458,30 +494,41 @@ std::string MeshReport::json() const {
     std::ostringstream o;
     const auto& c = check;
     const auto& r = referee;
-    o << "{\n \"file\": " << quoted(file) << ",\n \"format\": " << quoted(format) << ",\n \"valid\": "
-      << (valid() ? "true" : "false") << ",\n \"valid_by_referee_criteria\": " << (r.valid() ? "true" : "false")
+    o << "{\n \"file\": " << quoted(file) << ",\n \"format\": " << quoted(format)
+      << ",\n \"valid\": " << (valid() ? "true" : "false")
+      << ",\n \"valid_by_referee_criteria\": " << (r.valid() ? "true" : "false")
       << ",\n \"faces_kept\": " << (c.valid() ? "true" : "false") << ",\n \"n_nodes\": " << c.nodes
       << ",\n \"n_tets\": " << c.tets << ",\n \"n_regions\": " << c.region_volume.size()
-      << ",\n \"boundary_faces\": " << r.boundary_faces << ",\n \"interface_faces\": " << r.interface_faces
-      << ",\n \"file_triangles\": " << read.file_triangles << ",\n \"ignored_triangles\": " << read.ignored_triangles
-      << ",\n \"derived_faces\": " << read.derived_faces << ",\n \"inverted_tets\": " << r.inverted_tets
-      << ",\n \"inverted_tets_exact\": " << c.inverted_tets << ",\n \"degenerate_tets\": " << r.degenerate_tets
-      << ",\n \"nonconforming_faces\": " << r.nonconforming_faces << ",\n \"duplicate_tets\": " << r.duplicate_tets
-      << ",\n \"same_side_interior_faces\": " << r.same_side_faces << ",\n \"unused_nodes\": " << c.unused_nodes
+      << ",\n \"boundary_faces\": " << r.boundary_faces
+      << ",\n \"interface_faces\": " << r.interface_faces
+      << ",\n \"file_triangles\": " << read.file_triangles
+      << ",\n \"ignored_triangles\": " << read.ignored_triangles
+      << ",\n \"derived_faces\": " << read.derived_faces
+      << ",\n \"inverted_tets\": " << r.inverted_tets
+      << ",\n \"inverted_tets_exact\": " << c.inverted_tets
+      << ",\n \"degenerate_tets\": " << r.degenerate_tets
+      << ",\n \"nonconforming_faces\": " << r.nonconforming_faces
+      << ",\n \"duplicate_tets\": " << r.duplicate_tets
+      << ",\n \"same_side_interior_faces\": " << r.same_side_faces
+      << ",\n \"unused_nodes\": " << c.unused_nodes
       << ",\n \"duplicate_nodes\": " << r.duplicate_nodes << ",\n \"open_faces\": " << c.open_faces
-      << ",\n \"missing_faces\": " << c.missing_faces << ",\n \"wrong_side_faces\": " << c.wrong_side_faces
-      << ",\n \"inner_faces_on_surface\": " << c.inner_faces_on_surface << ",\n \"boundary\": {\"closed_manifold\": "
-      << (r.closed_manifold() ? "true" : "false") << ", \"open_edges\": " << r.open_edges
-      << ", \"nonmanifold_edges\": " << r.nonmanifold_edges << ", \"nonmanifold_vertices\": " << r.nonmanifold_vertices
-      << ", \"misoriented_edges\": " << r.misoriented_edges << ", \"n_components\": " << r.boundary_components
-      << "},\n \"volume\": " << num(r.volume, 12) << ",\n \"enclosed_volume\": " << num(r.enclosed_volume, 12)
-      << ",\n \"volume_rel_diff\": " << num(r.volume_rel_diff, 4) << ",\n \"quality\": " << quality_json(c.quality)
-      << ",\n \"regions\": {";
+      << ",\n \"missing_faces\": " << c.missing_faces
+      << ",\n \"wrong_side_faces\": " << c.wrong_side_faces
+      << ",\n \"inner_faces_on_surface\": " << c.inner_faces_on_surface
+      << ",\n \"boundary\": {\"closed_manifold\": " << (r.closed_manifold() ? "true" : "false")
+      << ", \"open_edges\": " << r.open_edges << ", \"nonmanifold_edges\": " << r.nonmanifold_edges
+      << ", \"nonmanifold_vertices\": " << r.nonmanifold_vertices
+      << ", \"misoriented_edges\": " << r.misoriented_edges
+      << ", \"n_components\": " << r.boundary_components << "},\n \"volume\": " << num(r.volume, 12)
+      << ",\n \"enclosed_volume\": " << num(r.enclosed_volume, 12)
+      << ",\n \"volume_rel_diff\": " << num(r.volume_rel_diff, 4)
+      << ",\n \"quality\": " << quality_json(c.quality) << ",\n \"regions\": {";
     bool first = true;
     for (const auto& [label, v] : c.region_volume) {
-        o << (first ? "\n  " : ",\n  ") << quoted(std::to_string(label)) << ": {\"name\": " << quoted(names.name(label))
-          << ", \"volume\": " << num(v, 12);
-        if (const auto it = c.region_enclosed_volume.find(label); it != c.region_enclosed_volume.end())
+        o << (first ? "\n  " : ",\n  ") << quoted(std::to_string(label))
+          << ": {\"name\": " << quoted(names.name(label)) << ", \"volume\": " << num(v, 12);
+        if (const auto it = c.region_enclosed_volume.find(label);
+            it != c.region_enclosed_volume.end())
             o << ", \"enclosed_volume\": " << num(it->second, 12);
         if (const auto it = c.region_quality.find(label); it != c.region_quality.end())
             o << ", \"quality\": " << quality_json(it->second);
@@ -489,13 +536,16 @@ std::string MeshReport::json() const {
         first = false;
     }
     const auto& s = surface_quality;
-    o << "\n },\n \"surface_triangles\": {\"n\": " << s.triangles << ", \"eta_mean\": " << num(s.mean_eta)
-      << ", \"eta_max\": " << num(s.max_eta) << ", \"eta_over_0_8\": " << s.eta_over_08
-      << ", \"min_angle_deg\": " << num(s.min_angle_deg) << ", \"max_angle_deg\": " << num(s.max_angle_deg) << "}";
+    o << "\n },\n \"surface_triangles\": {\"n\": " << s.triangles
+      << ", \"eta_mean\": " << num(s.mean_eta) << ", \"eta_max\": " << num(s.max_eta)
+      << ", \"eta_over_0_8\": " << s.eta_over_08 << ", \"min_angle_deg\": " << num(s.min_angle_deg)
+      << ", \"max_angle_deg\": " << num(s.max_angle_deg) << "}";
     if (preservation) {
         const auto& p = *preservation;
-        o << ",\n \"reference\": " << quoted(reference) << ",\n \"preservation\": {\"ref_vertices\": " << p.ref_vertices
-          << ", \"ref_vertices_matched\": " << p.ref_vertices_matched << ", \"ref_triangles\": " << p.ref_triangles
+        o << ",\n \"reference\": " << quoted(reference)
+          << ",\n \"preservation\": {\"ref_vertices\": " << p.ref_vertices
+          << ", \"ref_vertices_matched\": " << p.ref_vertices_matched
+          << ", \"ref_triangles\": " << p.ref_triangles
           << ", \"ref_triangles_in_mesh\": " << p.ref_triangles_in_mesh
           << ", \"ref_triangles_on_surface\": " << p.ref_triangles_on_surface
           << ", \"mesh_surface_faces\": " << p.mesh_surface_faces

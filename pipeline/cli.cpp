@@ -16,9 +16,9 @@
 #include "pipeline/check.h"
 #include "pipeline/cohort.h"
 #include "pipeline/core/error.h"
-#include "pipeline/version.h"
 #include "pipeline/recipe.h"
 #include "pipeline/runner.h"
+#include "pipeline/version.h"
 
 namespace frontmesh::pipeline {
 namespace {
@@ -102,25 +102,40 @@ Arguments parse(int argc, char** argv) {
     Arguments a;
     std::vector<std::string> args(argv + 1, argv + argc);
     auto value = [&](std::size_t& i) -> std::string {
-        if (i + 1 >= args.size()) FM_THROW(InputError, args[i] + ": needs a value (see frontmesh --help)");
+        if (i + 1 >= args.size())
+            FM_THROW(InputError, args[i] + ": needs a value (see frontmesh --help)");
         return args[++i];
     };
     for (std::size_t i = 0; i < args.size(); ++i) {
         const std::string& arg = args[i];
-        if (arg == "--set") a.overrides.push_back(value(i));
-        else if (arg.rfind("--set=", 0) == 0) a.overrides.push_back(arg.substr(6));
-        else if (arg == "--from") a.from = value(i);
-        else if (arg == "--until") a.until = value(i);
-        else if (arg == "--force") a.force = true;
-        else if (arg == "--quiet") a.quiet = true;
-        else if (arg == "--threads") a.threads = whole_number(arg, value(i));
-        else if (arg == "--recipe") a.cohort_recipe = value(i);
-        else if (arg == "-j" || arg == "--jobs") a.jobs = whole_number(arg, value(i));
-        else if (arg == "--json") a.json = true;
-        else if (arg == "--surface") a.surface = value(i);
-        else if (arg == "--format") a.format = value(i);
-        else if (arg == "--labels") a.labels = value(i);
-        else if (arg.size() > 2 && arg.rfind("-j", 0) == 0) a.jobs = whole_number("-j", arg.substr(2));
+        if (arg == "--set")
+            a.overrides.push_back(value(i));
+        else if (arg.rfind("--set=", 0) == 0)
+            a.overrides.push_back(arg.substr(6));
+        else if (arg == "--from")
+            a.from = value(i);
+        else if (arg == "--until")
+            a.until = value(i);
+        else if (arg == "--force")
+            a.force = true;
+        else if (arg == "--quiet")
+            a.quiet = true;
+        else if (arg == "--threads")
+            a.threads = whole_number(arg, value(i));
+        else if (arg == "--recipe")
+            a.cohort_recipe = value(i);
+        else if (arg == "-j" || arg == "--jobs")
+            a.jobs = whole_number(arg, value(i));
+        else if (arg == "--json")
+            a.json = true;
+        else if (arg == "--surface")
+            a.surface = value(i);
+        else if (arg == "--format")
+            a.format = value(i);
+        else if (arg == "--labels")
+            a.labels = value(i);
+        else if (arg.size() > 2 && arg.rfind("-j", 0) == 0)
+            a.jobs = whole_number("-j", arg.substr(2));
         else if (!arg.empty() && arg[0] == '-') {
             FM_THROW(InputError, arg + ": unknown option (see frontmesh --help)");
         } else if (a.command.empty()) {
@@ -138,7 +153,8 @@ Arguments parse(int argc, char** argv) {
 
 int run_cohort_command(const Arguments& args) {
     if (args.recipe.empty() || args.cohort_recipe.empty())
-        FM_THROW(InputError, "cohort: usage: frontmesh cohort MANIFEST.csv --recipe RECIPE.yaml [-j N]");
+        FM_THROW(InputError,
+                 "cohort: usage: frontmesh cohort MANIFEST.csv --recipe RECIPE.yaml [-j N]");
     if (!args.from.empty()) FM_THROW(InputError, "cohort: --from is for run");
     if (!args.until.empty()) {
         const auto& names = stage_names();
@@ -152,11 +168,13 @@ int run_cohort_command(const Arguments& args) {
     options.force = args.force;
     options.until = args.until;
     options.threads = args.threads;
-    if (!args.quiet) options.on_progress = [](const std::string& line) { std::cerr << line << '\n'; };
+    if (!args.quiet)
+        options.on_progress = [](const std::string& line) { std::cerr << line << '\n'; };
     const CohortResult result = run_cohort(args.recipe, options);
     const auto root = std::filesystem::path(result.root);
-    std::cout << "\nSubjects: " << result.count(SubjectStatus::Ok) << " ok, " << result.count(SubjectStatus::Skipped)
-              << " skipped (up to date), " << result.count(SubjectStatus::Failed) << " failed"
+    std::cout << "\nSubjects: " << result.count(SubjectStatus::Ok) << " ok, "
+              << result.count(SubjectStatus::Skipped) << " skipped (up to date), "
+              << result.count(SubjectStatus::Failed) << " failed"
               << "\nSummary:  " << (root / "cohort-summary.csv").string() << "\n          "
               << (root / "cohort-summary.json").string() << "\nResults:  " << (root / "ID").string()
               << "/ (each with its summary.json, frontmesh.log and cohort-run.log)\n";
@@ -175,7 +193,8 @@ void print_keys() {
 }
 
 int run_check_command(const Arguments& args) {
-    if (args.recipe.empty()) FM_THROW(InputError, "check: usage: frontmesh check MESH [--json] [--surface REF]");
+    if (args.recipe.empty())
+        FM_THROW(InputError, "check: usage: frontmesh check MESH [--json] [--surface REF]");
     const MeshReport report = check_mesh_file(args.recipe, args.surface);
     std::cout << (args.json ? report.json() : report.text());
     return report.valid() ? 0 : 1;
@@ -183,7 +202,8 @@ int run_check_command(const Arguments& args) {
 
 int run_convert_command(const Arguments& args) {
     if (args.recipe.empty() || args.output.empty())
-        FM_THROW(InputError, "convert: usage: frontmesh convert IN OUT [--format NAME] [--labels TABLE]");
+        FM_THROW(InputError,
+                 "convert: usage: frontmesh convert IN OUT [--format NAME] [--labels TABLE]");
     const io::MeshFormat format =
         args.format.empty() ? io::format_from_path(args.output) : io::format_from_name(args.format);
     io::LabelTable names;
@@ -194,8 +214,9 @@ int run_convert_command(const Arguments& args) {
         for (const auto& [label, name] : table.names()) names.set(label, name);
     }
     io::write_mesh(mesh, args.output, format, names, info.fields);
-    std::cout << args.output << ": " << mesh.node_count() << " nodes, " << mesh.tet_count() << " tets, "
-              << mesh.face_count() << " boundary/interface faces (" << io::format_name(format) << ")\n";
+    std::cout << args.output << ": " << mesh.node_count() << " nodes, " << mesh.tet_count()
+              << " tets, " << mesh.face_count() << " boundary/interface faces ("
+              << io::format_name(format) << ")\n";
     return 0;
 }
 
@@ -203,7 +224,8 @@ int run_convert_command(const Arguments& args) {
 
 int run_cli(int argc, char** argv) {
     for (int i = 1; i < argc; ++i) {
-        if (!std::strcmp(argv[i], "--help") || !std::strcmp(argv[i], "-h") || !std::strcmp(argv[i], "help")) {
+        if (!std::strcmp(argv[i], "--help") || !std::strcmp(argv[i], "-h") ||
+            !std::strcmp(argv[i], "help")) {
             std::cout << kUsage;
             return 0;
         }
@@ -223,32 +245,44 @@ int run_cli(int argc, char** argv) {
             return 0;
         }
         const bool mesh_command = args.command == "check" || args.command == "convert";
-        if (!mesh_command && (args.json || !args.surface.empty() || !args.format.empty() || !args.labels.empty()))
-            FM_THROW(InputError, "--json, --surface, --format and --labels are for frontmesh check / convert");
-        if (mesh_command && (!args.overrides.empty() || !args.from.empty() || !args.until.empty() || args.force ||
-                             args.jobs || !args.cohort_recipe.empty()))
+        if (!mesh_command &&
+            (args.json || !args.surface.empty() || !args.format.empty() || !args.labels.empty()))
+            FM_THROW(InputError,
+                     "--json, --surface, --format and --labels are for frontmesh check / convert");
+        if (mesh_command && (!args.overrides.empty() || !args.from.empty() || !args.until.empty() ||
+                             args.force || args.jobs || !args.cohort_recipe.empty()))
             FM_THROW(InputError, args.command + ": takes no recipe options (see frontmesh --help)");
         if (args.command == "check") return run_check_command(args);
         if (args.command == "convert") return run_convert_command(args);
         if (args.command == "cohort") return run_cohort_command(args);
         if (args.command != "run" && args.command != "validate")
-            FM_THROW(InputError, args.command + ": unknown command; use run, validate, cohort, check, convert or keys (see frontmesh --help)");
+            FM_THROW(InputError, args.command +
+                                     ": unknown command; use run, validate, cohort, check, convert "
+                                     "or keys (see frontmesh --help)");
         if (!args.cohort_recipe.empty() || args.jobs)
-            FM_THROW(InputError, std::string(args.jobs ? "-j" : "--recipe") + ": only for frontmesh cohort");
-        if (args.recipe.empty()) FM_THROW(InputError, args.command + ": needs a recipe file (frontmesh " + args.command + " RECIPE.yaml)");
+            FM_THROW(InputError,
+                     std::string(args.jobs ? "-j" : "--recipe") + ": only for frontmesh cohort");
+        if (args.recipe.empty())
+            FM_THROW(InputError, args.command + ": needs a recipe file (frontmesh " + args.command +
+                                     " RECIPE.yaml)");
         const Recipe recipe = load_recipe(args.recipe, args.overrides);
-        if (!recipe.input.image.empty()) io::check_label_image(recipe.input.image, {.threshold = recipe.input.threshold, .spacing = recipe.input.spacing});
+        if (!recipe.input.image.empty())
+            io::check_label_image(recipe.input.image, {.threshold = recipe.input.threshold,
+                                                       .spacing = recipe.input.spacing});
         if (args.command == "validate") {
             std::cout << args.recipe << ": valid; output in " << recipe.output.dir << '\n';
             return 0;
         }
         std::unique_ptr<tbb::global_control> threads;
         if (args.threads > 0)
-            threads = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
-                                                            static_cast<std::size_t>(args.threads));
-        const std::string result = run_recipe(recipe, RunOptions{args.from, args.until, args.force, args.quiet});
+            threads =
+                std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
+                                                      static_cast<std::size_t>(args.threads));
+        const std::string result =
+            run_recipe(recipe, RunOptions{args.from, args.until, args.force, args.quiet});
         const auto dir = std::filesystem::path(recipe.output.dir);
-        std::cout << "\nResult:      " << result << "\nCheckpoints: " << (dir / "checkpoints").string()
+        std::cout << "\nResult:      " << result
+                  << "\nCheckpoints: " << (dir / "checkpoints").string()
                   << "\nSummary:     " << (dir / "summary.json").string()
                   << "\nLog:         " << (dir / "frontmesh.log").string()
                   << "\nOpen the whole run in ParaView:  paraview " << (dir / "run.pvd").string()

@@ -21,9 +21,9 @@
 
 #include "io/atomic_file.h"
 #include "pipeline/core/error.h"
-#include "pipeline/version.h"
 #include "pipeline/recipe.h"
 #include "pipeline/report.h"
+#include "pipeline/version.h"
 
 namespace frontmesh::pipeline {
 namespace {
@@ -64,7 +64,8 @@ std::string without_set_origin(const std::string& message) {
 }
 
 bool is_safe_id(const std::string& id) {
-    if (id.empty() || id.size() > 128 || !std::isalnum(static_cast<unsigned char>(id[0]))) return false;
+    if (id.empty() || id.size() > 128 || !std::isalnum(static_cast<unsigned char>(id[0])))
+        return false;
     return std::all_of(id.begin(), id.end(), [](char c) {
         return std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '_' || c == '-';
     });
@@ -101,7 +102,8 @@ public:
 
 private:
     [[noreturn]] void fail(const std::string& what) const {
-        FM_THROW(IoError, origin_ + ": not valid JSON at byte " + std::to_string(at_) + ": " + what);
+        FM_THROW(IoError,
+                 origin_ + ": not valid JSON at byte " + std::to_string(at_) + ": " + what);
     }
     void skip_space() {
         while (at_ < s_.size() && std::strchr(" \t\r\n", s_[at_])) ++at_;
@@ -203,12 +205,26 @@ private:
             if (at_ >= s_.size()) fail("unclosed string");
             const char e = s_[at_++];
             switch (e) {
-                case '"': case '\\': case '/': out += e; break;
-                case 'b': out += '\b'; break;
-                case 'f': out += '\f'; break;
-                case 'n': out += '\n'; break;
-                case 'r': out += '\r'; break;
-                case 't': out += '\t'; break;
+                case '"':
+                case '\\':
+                case '/':
+                    out += e;
+                    break;
+                case 'b':
+                    out += '\b';
+                    break;
+                case 'f':
+                    out += '\f';
+                    break;
+                case 'n':
+                    out += '\n';
+                    break;
+                case 'r':
+                    out += '\r';
+                    break;
+                case 't':
+                    out += '\t';
+                    break;
                 case 'u': {
                     unsigned code = hex4();
                     if (code >= 0xD800 && code < 0xDC00 && s_.compare(at_, 2, "\\u") == 0) {
@@ -219,7 +235,8 @@ private:
                     append_utf8(out, code);
                     break;
                 }
-                default: fail("bad escape");
+                default:
+                    fail("bad escape");
             }
         }
     }
@@ -244,8 +261,10 @@ std::string last_error_line(const fs::path& log) {
     while (std::getline(in, line)) {
         if (!line.empty() && line.back() == '\r') line.pop_back();
         const std::string error = "frontmesh: error: ", internal = "frontmesh: internal error: ";
-        if (line.rfind(error, 0) == 0) found = without_set_origin(line.substr(error.size()));
-        else if (line.rfind(internal, 0) == 0) found = line.substr(std::strlen("frontmesh: "));
+        if (line.rfind(error, 0) == 0)
+            found = without_set_origin(line.substr(error.size()));
+        else if (line.rfind(internal, 0) == 0)
+            found = line.substr(std::strlen("frontmesh: "));
     }
     return found;
 }
@@ -270,15 +289,19 @@ void read_subject_summary(SubjectResult& r) {
     if (!status || status->text != "ok") {
         r.status = SubjectStatus::Failed;
         const JsonValue* error = summary.member("error");
-        r.error = error && error->kind == JsonValue::Kind::String ? error->text : path.string() + ": status is not ok";
+        r.error = error && error->kind == JsonValue::Kind::String
+                      ? error->text
+                      : path.string() + ": status is not ok";
         return;
     }
-    if (const JsonValue* total = summary.member("total_wall_s"); total && total->kind == JsonValue::Kind::Number)
+    if (const JsonValue* total = summary.member("total_wall_s");
+        total && total->kind == JsonValue::Kind::Number)
         r.total_wall_s = total->number;
     // Skipped: the run had stages to report and every one of them was up to date.
     bool any_ran = false, any_stage = false;
     const JsonValue* last = nullptr;
-    if (const JsonValue* stages = summary.member("stages"); stages && stages->kind == JsonValue::Kind::Array)
+    if (const JsonValue* stages = summary.member("stages");
+        stages && stages->kind == JsonValue::Kind::Array)
         for (const JsonValue& stage : stages->items) {
             any_stage = true;
             const JsonValue* s = stage.member("status");
@@ -314,15 +337,16 @@ void read_subject_summary(SubjectResult& r) {
     }
 }
 
-pid_t spawn_subject(const std::string& executable, const std::vector<std::string>& args, const fs::path& log,
-                    std::string& error) {
+pid_t spawn_subject(const std::string& executable, const std::vector<std::string>& args,
+                    const fs::path& log, std::string& error) {
     std::vector<char*> argv;
     for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
     argv.push_back(nullptr);
     posix_spawn_file_actions_t actions;
     posix_spawn_file_actions_init(&actions);
     posix_spawn_file_actions_addopen(&actions, STDIN_FILENO, "/dev/null", O_RDONLY, 0);
-    posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, log.c_str(),
+                                     O_WRONLY | O_CREAT | O_TRUNC, 0644);
     posix_spawn_file_actions_adddup2(&actions, STDOUT_FILENO, STDERR_FILENO);
     pid_t pid = -1;
     const int rc = posix_spawn(&pid, executable.c_str(), &actions, nullptr, argv.data(), environ);
@@ -362,42 +386,52 @@ std::string optional_text(const std::optional<T>& value) {
 template <typename T>
 std::string optional_json(const std::optional<T>& value) {
     if (!value) return "null";
-    if constexpr (std::is_floating_point_v<T>) return json_number(*value);
-    else return std::to_string(*value);
+    if constexpr (std::is_floating_point_v<T>)
+        return json_number(*value);
+    else
+        return std::to_string(*value);
 }
 
-void write_summaries(const CohortResult& result, const Manifest& manifest, const std::string& recipe, int jobs) {
+void write_summaries(const CohortResult& result, const Manifest& manifest,
+                     const std::string& recipe, int jobs) {
     std::ostringstream csv;
     csv << "id,status,exit_code,wall_s,total_wall_s,faces,regions,regions_closed,nodes,tets,"
            "fraction_skewness_over_0.8,min_dihedral_deg,error\n";
     for (const auto& r : result.subjects)
         csv << csv_field(r.id) << ',' << subject_status_name(r.status) << ',' << r.exit_code << ','
-            << optional_text(std::optional<double>(r.wall_s)) << ',' << optional_text(r.total_wall_s) << ','
-            << optional_text(r.faces) << ',' << optional_text(r.regions) << ',' << optional_text(r.regions_closed)
-            << ',' << optional_text(r.nodes) << ',' << optional_text(r.tets) << ','
+            << optional_text(std::optional<double>(r.wall_s)) << ','
+            << optional_text(r.total_wall_s) << ',' << optional_text(r.faces) << ','
+            << optional_text(r.regions) << ',' << optional_text(r.regions_closed) << ','
+            << optional_text(r.nodes) << ',' << optional_text(r.tets) << ','
             << optional_text(r.skewness_over_08) << ',' << optional_text(r.min_dihedral_deg) << ','
             << csv_field(r.error) << '\n';
     io::write_text_atomically((fs::path(result.root) / kSummaryCsv).string(), csv.str());
 
     std::ostringstream json;
-    json << "{\n  \"frontmesh_version\": " << json_quote(version()) << ",\n  \"manifest\": "
-         << json_quote(manifest.path) << ",\n  \"recipe\": " << json_quote(recipe) << ",\n  \"root\": "
-         << json_quote(result.root) << ",\n  \"jobs\": " << jobs << ",\n  \"counts\": {\"ok\": "
-         << result.count(SubjectStatus::Ok) << ", \"skipped\": " << result.count(SubjectStatus::Skipped)
+    json << "{\n  \"frontmesh_version\": " << json_quote(version())
+         << ",\n  \"manifest\": " << json_quote(manifest.path)
+         << ",\n  \"recipe\": " << json_quote(recipe)
+         << ",\n  \"root\": " << json_quote(result.root) << ",\n  \"jobs\": " << jobs
+         << ",\n  \"counts\": {\"ok\": " << result.count(SubjectStatus::Ok)
+         << ", \"skipped\": " << result.count(SubjectStatus::Skipped)
          << ", \"failed\": " << result.count(SubjectStatus::Failed) << "},\n  \"subjects\": [";
     for (std::size_t i = 0; i < result.subjects.size(); ++i) {
         const auto& r = result.subjects[i];
-        json << (i ? ",\n    " : "\n    ") << "{\"id\": " << json_quote(r.id) << ", \"status\": "
-             << json_quote(subject_status_name(r.status)) << ", \"exit_code\": " << r.exit_code
-             << ", \"wall_s\": " << json_number(r.wall_s) << ", \"total_wall_s\": " << optional_json(r.total_wall_s)
-             << ", \"faces\": " << optional_json(r.faces) << ", \"regions\": " << optional_json(r.regions)
-             << ", \"regions_closed\": " << optional_json(r.regions_closed) << ", \"nodes\": " << optional_json(r.nodes)
-             << ", \"tets\": " << optional_json(r.tets) << ", \"fraction_skewness_over_0.8\": "
-             << optional_json(r.skewness_over_08) << ", \"min_dihedral_deg\": " << optional_json(r.min_dihedral_deg)
-             << ",\n     \"image\": "
-             << json_quote(manifest.subjects[i].image) << ", \"dir\": " << json_quote(r.dir) << ", \"log\": "
-             << json_quote((fs::path(r.dir) / kRunLog).string())
-             << ", \"error\": " << (r.error.empty() ? std::string("null") : json_quote(r.error)) << "}";
+        json << (i ? ",\n    " : "\n    ") << "{\"id\": " << json_quote(r.id)
+             << ", \"status\": " << json_quote(subject_status_name(r.status))
+             << ", \"exit_code\": " << r.exit_code << ", \"wall_s\": " << json_number(r.wall_s)
+             << ", \"total_wall_s\": " << optional_json(r.total_wall_s)
+             << ", \"faces\": " << optional_json(r.faces)
+             << ", \"regions\": " << optional_json(r.regions)
+             << ", \"regions_closed\": " << optional_json(r.regions_closed)
+             << ", \"nodes\": " << optional_json(r.nodes) << ", \"tets\": " << optional_json(r.tets)
+             << ", \"fraction_skewness_over_0.8\": " << optional_json(r.skewness_over_08)
+             << ", \"min_dihedral_deg\": " << optional_json(r.min_dihedral_deg)
+             << ",\n     \"image\": " << json_quote(manifest.subjects[i].image)
+             << ", \"dir\": " << json_quote(r.dir)
+             << ", \"log\": " << json_quote((fs::path(r.dir) / kRunLog).string())
+             << ", \"error\": " << (r.error.empty() ? std::string("null") : json_quote(r.error))
+             << "}";
     }
     json << "\n  ]\n}\n";
     io::write_text_atomically((fs::path(result.root) / kSummaryJson).string(), json.str());
@@ -405,8 +439,9 @@ void write_summaries(const CohortResult& result, const Manifest& manifest, const
 
 // Overrides of one subject's run, in order: the cohort's --set, the subject's image and
 // folder, then the manifest's cells (the most specific wins).
-std::vector<std::string> subject_overrides(const CohortOptions& options, const CohortSubject& subject,
-                                           const std::string& image, const std::string& dir) {
+std::vector<std::string> subject_overrides(const CohortOptions& options,
+                                           const CohortSubject& subject, const std::string& image,
+                                           const std::string& dir) {
     std::vector<std::string> all = options.overrides;
     all.push_back("input.image=" + yaml_quote(image));
     all.push_back("output.dir=" + yaml_quote(dir));
@@ -415,12 +450,14 @@ std::vector<std::string> subject_overrides(const CohortOptions& options, const C
 }
 
 bool is_existing_image(const std::string& image) {
-    return fs::exists(image) || image.find('%') != std::string::npos;  // a slice pattern is checked by the run
+    return fs::exists(image) ||
+           image.find('%') != std::string::npos;  // a slice pattern is checked by the run
 }
 
 }  // namespace
 
-std::vector<std::pair<int, std::vector<std::string>>> parse_csv(const std::string& input, const std::string& origin) {
+std::vector<std::pair<int, std::vector<std::string>>> parse_csv(const std::string& input,
+                                                                const std::string& origin) {
     std::size_t i = input.compare(0, 3, "\xEF\xBB\xBF") == 0 ? 3 : 0;
     const std::size_t n = input.size();
     std::vector<std::pair<int, std::vector<std::string>>> records;
@@ -449,7 +486,9 @@ std::vector<std::pair<int, std::vector<std::string>>> parse_csv(const std::strin
             quoted = record_has_quote = true;
             ++i;
             while (true) {
-                if (i >= n) FM_THROW(InputError, origin + ":" + std::to_string(quote_line) + ": a quoted field is not closed");
+                if (i >= n)
+                    FM_THROW(InputError, origin + ":" + std::to_string(quote_line) +
+                                             ": a quoted field is not closed");
                 if (input[i] == '"') {
                     if (i + 1 < n && input[i + 1] == '"') {
                         field += '"';
@@ -464,9 +503,10 @@ std::vector<std::pair<int, std::vector<std::string>>> parse_csv(const std::strin
             }
             while (i < n && (input[i] == ' ' || input[i] == '\t')) ++i;
             if (i < n && input[i] != ',' && input[i] != '\n' && input[i] != '\r')
-                FM_THROW(InputError, origin + ":" + std::to_string(line) +
-                                         ": text after the closing quote of a field; write a quote inside a "
-                                         "quoted field as \"\"");
+                FM_THROW(InputError,
+                         origin + ":" + std::to_string(line) +
+                             ": text after the closing quote of a field; write a quote inside a "
+                             "quoted field as \"\"");
             continue;
         }
         if (c == ',') {
@@ -478,7 +518,8 @@ std::vector<std::pair<int, std::vector<std::string>>> parse_csv(const std::strin
             record_line = ++line;
         } else {
             if (quoted)
-                FM_THROW(InputError, origin + ":" + std::to_string(line) + ": text after the closing quote of a field");
+                FM_THROW(InputError, origin + ":" + std::to_string(line) +
+                                         ": text after the closing quote of a field");
             field += c;
             ++i;
         }
@@ -492,23 +533,33 @@ Manifest read_manifest(const std::string& path) {
     Manifest m;
     m.path = fs::absolute(path).lexically_normal().string();
     const auto records = parse_csv(read_text(path), path);
-    if (records.empty()) FM_THROW(InputError, path + ": the manifest is empty; its first line names the columns, e.g. id,image");
+    if (records.empty())
+        FM_THROW(InputError,
+                 path + ": the manifest is empty; its first line names the columns, e.g. id,image");
     m.header_line = records.front().first;
     const std::string at_header = path + ":" + std::to_string(m.header_line) + ": ";
     m.columns = records.front().second;
     int id_column = -1, image_column = -1;
     for (std::size_t c = 0; c < m.columns.size(); ++c) {
         const std::string& name = m.columns[c];
-        if (name.empty()) FM_THROW(InputError, at_header + "column " + std::to_string(c + 1) + " has no name");
-        if (std::find(m.columns.begin(), m.columns.begin() + static_cast<long>(c), name) != m.columns.begin() + static_cast<long>(c))
+        if (name.empty())
+            FM_THROW(InputError, at_header + "column " + std::to_string(c + 1) + " has no name");
+        if (std::find(m.columns.begin(), m.columns.begin() + static_cast<long>(c), name) !=
+            m.columns.begin() + static_cast<long>(c))
             FM_THROW(InputError, at_header + "column '" + name + "' appears twice");
-        if (name == "id") id_column = static_cast<int>(c);
-        else if (name == "image") image_column = static_cast<int>(c);
+        if (name == "id")
+            id_column = static_cast<int>(c);
+        else if (name == "image")
+            image_column = static_cast<int>(c);
         else if (name == "input.image")
-            FM_THROW(InputError, at_header + "column 'input.image': give each subject's image in the 'image' column");
+            FM_THROW(InputError,
+                     at_header +
+                         "column 'input.image': give each subject's image in the 'image' column");
         else if (name == "output.dir")
-            FM_THROW(InputError, at_header + "column 'output.dir': each subject's results go to OUTPUT/ID below the "
-                                             "recipe's output.dir; set that in the recipe or with --set");
+            FM_THROW(InputError,
+                     at_header +
+                         "column 'output.dir': each subject's results go to OUTPUT/ID below the "
+                         "recipe's output.dir; set that in the recipe or with --set");
     }
     if (id_column < 0 || image_column < 0) {
         std::string found;
@@ -523,53 +574,65 @@ Manifest read_manifest(const std::string& path) {
         const auto& [line, fields] = records[r];
         const std::string at = path + ":" + std::to_string(line) + ": ";
         if (fields.size() != m.columns.size())
-            FM_THROW(InputError, at + std::to_string(fields.size()) + " fields, but the header has " +
-                                     std::to_string(m.columns.size()) + " (quote a field that holds a comma)");
+            FM_THROW(InputError,
+                     at + std::to_string(fields.size()) + " fields, but the header has " +
+                         std::to_string(m.columns.size()) + " (quote a field that holds a comma)");
         CohortSubject s;
         s.line = line;
         s.id = fields[static_cast<std::size_t>(id_column)];
         if (s.id.empty()) FM_THROW(InputError, at + "the id is empty");
         if (!is_safe_id(s.id))
-            FM_THROW(InputError, at + "id '" + s.id + "' cannot be a folder name; use letters, digits, '.', '_' and "
-                                      "'-', starting with a letter or digit");
+            FM_THROW(InputError, at + "id '" + s.id +
+                                     "' cannot be a folder name; use letters, digits, '.', '_' and "
+                                     "'-', starting with a letter or digit");
         if (s.id == kSummaryCsv || s.id == kSummaryJson)
             FM_THROW(InputError, at + "id '" + s.id + "' is the name of the cohort's summary file");
         if (const auto [it, fresh] = id_lines.emplace(s.id, line); !fresh)
-            FM_THROW(InputError, at + "id '" + s.id + "' is also on line " + std::to_string(it->second));
+            FM_THROW(InputError,
+                     at + "id '" + s.id + "' is also on line " + std::to_string(it->second));
         const std::string& image = fields[static_cast<std::size_t>(image_column)];
         if (image.empty()) FM_THROW(InputError, at + "subject '" + s.id + "' has an empty image");
         fs::path p(image);
         if (p.is_relative()) p = folder / p;
         s.image = p.lexically_normal().string();
         for (std::size_t c = 0; c < fields.size(); ++c)
-            if (static_cast<int>(c) != id_column && static_cast<int>(c) != image_column && !fields[c].empty())
+            if (static_cast<int>(c) != id_column && static_cast<int>(c) != image_column &&
+                !fields[c].empty())
                 s.overrides.emplace_back(m.columns[c], fields[c]);
         m.subjects.push_back(std::move(s));
     }
-    if (m.subjects.empty()) FM_THROW(InputError, path + ": no subjects; the manifest has only its header line");
+    if (m.subjects.empty())
+        FM_THROW(InputError, path + ": no subjects; the manifest has only its header line");
     return m;
 }
 
 const char* subject_status_name(SubjectStatus status) {
     switch (status) {
-        case SubjectStatus::Ok: return "ok";
-        case SubjectStatus::Skipped: return "skipped";
-        case SubjectStatus::Failed: return "failed";
+        case SubjectStatus::Ok:
+            return "ok";
+        case SubjectStatus::Skipped:
+            return "skipped";
+        case SubjectStatus::Failed:
+            return "failed";
     }
     return "failed";
 }
 
 std::size_t CohortResult::count(SubjectStatus status) const {
     return static_cast<std::size_t>(
-        std::count_if(subjects.begin(), subjects.end(), [&](const SubjectResult& r) { return r.status == status; }));
+        std::count_if(subjects.begin(), subjects.end(),
+                      [&](const SubjectResult& r) { return r.status == status; }));
 }
 
 CohortResult run_cohort(const std::string& manifest_path, const CohortOptions& options) {
-    if (options.jobs < 1) FM_THROW(InputError, "-j " + std::to_string(options.jobs) + ": expected a whole number >= 1");
+    if (options.jobs < 1)
+        FM_THROW(InputError,
+                 "-j " + std::to_string(options.jobs) + ": expected a whole number >= 1");
     if (options.recipe.empty()) FM_THROW(InputError, "cohort: needs a recipe (--recipe R.yaml)");
     const Manifest manifest = read_manifest(manifest_path);
-    const std::string recipe_path =
-        fs::exists(options.recipe) ? fs::absolute(options.recipe).lexically_normal().string() : options.recipe;
+    const std::string recipe_path = fs::exists(options.recipe)
+                                        ? fs::absolute(options.recipe).lexically_normal().string()
+                                        : options.recipe;
 
     // 1. The recipe with the cohort's --set. Its input.image is replaced per subject, so an
     //    existing stand-in (the manifest) lets it validate; its output.dir is the root.
@@ -603,7 +666,8 @@ CohortResult run_cohort(const std::string& manifest_path, const CohortOptions& o
         try {
             load_recipe(recipe_path, subject_overrides(options, subject, image, dir));
         } catch (const core::InputError& e) {
-            FM_THROW(InputError, manifest_path + ":" + std::to_string(subject.line) + ": subject '" + subject.id +
+            FM_THROW(InputError, manifest_path + ":" + std::to_string(subject.line) +
+                                     ": subject '" + subject.id +
                                      "': " + without_set_origin(e.what()));
         }
     }
@@ -617,12 +681,15 @@ CohortResult run_cohort(const std::string& manifest_path, const CohortOptions& o
     auto report = [&](const SubjectResult& r) {
         ++finished;
         if (!options.on_progress) return;
-        std::string line = "[" + std::to_string(finished) + "/" + std::to_string(total) + "] " + r.id + " ";
+        std::string line =
+            "[" + std::to_string(finished) + "/" + std::to_string(total) + "] " + r.id + " ";
         if (r.status == SubjectStatus::Failed)
-            line += "failed (exit " + std::to_string(r.exit_code) + ") in " + format_seconds(r.wall_s) +
-                    " s: " + r.error + " (log: " + (fs::path(r.dir) / kRunLog).string() + ")";
+            line += "failed (exit " + std::to_string(r.exit_code) + ") in " +
+                    format_seconds(r.wall_s) + " s: " + r.error +
+                    " (log: " + (fs::path(r.dir) / kRunLog).string() + ")";
         else
-            line += std::string(subject_status_name(r.status)) + " in " + format_seconds(r.wall_s) + " s";
+            line += std::string(subject_status_name(r.status)) + " in " + format_seconds(r.wall_s) +
+                    " s";
         options.on_progress(line);
     };
     auto start = [&](std::size_t index) {
@@ -650,8 +717,10 @@ CohortResult run_cohort(const std::string& manifest_path, const CohortOptions& o
         std::error_code ec;
         fs::create_directories(r.dir, ec);
         pid_t pid = -1;
-        if (ec) error = "cannot create '" + r.dir + "': " + ec.message();
-        else pid = spawn_subject(options.executable, args, fs::path(r.dir) / kRunLog, error);
+        if (ec)
+            error = "cannot create '" + r.dir + "': " + ec.message();
+        else
+            pid = spawn_subject(options.executable, args, fs::path(r.dir) / kRunLog, error);
         if (pid < 0) {
             r.status = SubjectStatus::Failed;
             r.error = error;

@@ -15,8 +15,9 @@ namespace frontmesh::pipeline {
 struct CohortSubject {
     std::string id;     ///< folder name of the subject's results below the cohort root
     std::string image;  ///< absolute path (relative cells resolve against the manifest's folder)
-    std::vector<std::pair<std::string, std::string>> overrides;  ///< recipe key -> YAML value, non-empty cells only
-    int line = 0;       ///< line of the manifest where the row starts (1 = header)
+    std::vector<std::pair<std::string, std::string>>
+        overrides;  ///< recipe key -> YAML value, non-empty cells only
+    int line = 0;   ///< line of the manifest where the row starts (1 = header)
 };
 
 /// A parsed manifest: the header and one entry per subject, in file order.
@@ -33,7 +34,7 @@ struct Manifest {
 /// ignored. Each record comes with the line it starts on. `origin` names the text in errors.
 /// Throws InputError "origin:line: ..." for an unclosed quote or text after a closing quote.
 std::vector<std::pair<int, std::vector<std::string>>> parse_csv(const std::string& text,
-                                                                 const std::string& origin);
+                                                                const std::string& origin);
 
 /// Reads and checks the structure of the manifest at `path`: a header with the columns
 /// `id` and `image` (any order) plus recipe keys, one row per subject with as many fields
@@ -43,12 +44,13 @@ std::vector<std::pair<int, std::vector<std::string>>> parse_csv(const std::strin
 Manifest read_manifest(const std::string& path);
 
 struct CohortOptions {
-    std::string recipe;                  ///< recipe file; its output.dir is the cohort root
-    std::vector<std::string> overrides;  ///< "key.path=value" for every subject (before the manifest's cells)
-    int jobs = 1;                        ///< subjects running at the same time, >= 1
-    bool force = false;                  ///< pass --force to every subject's run
-    std::string until;                   ///< pass --until STAGE to every subject's run; empty = do not
-    int threads = 0;                     ///< pass --threads N to every subject's run; 0 = do not
+    std::string recipe;  ///< recipe file; its output.dir is the cohort root
+    std::vector<std::string>
+        overrides;       ///< "key.path=value" for every subject (before the manifest's cells)
+    int jobs = 1;        ///< subjects running at the same time, >= 1
+    bool force = false;  ///< pass --force to every subject's run
+    std::string until;   ///< pass --until STAGE to every subject's run; empty = do not
+    int threads = 0;     ///< pass --threads N to every subject's run; 0 = do not
     /// The frontmesh executable run for each subject. The default names the running
     /// program itself, so the command line needs no path.
     std::string executable = "/proc/self/exe";
@@ -64,17 +66,17 @@ const char* subject_status_name(SubjectStatus status);
 /// What one subject's run gave.
 struct SubjectResult {
     std::string id;
-    std::string dir;       ///< ROOT/ID, absolute
+    std::string dir;  ///< ROOT/ID, absolute
     SubjectStatus status = SubjectStatus::Failed;
-    int exit_code = -1;    ///< of the child; 128 + signal number when it was killed
-    double wall_s = 0.0;   ///< measured by the cohort, from start to exit of the child
-    std::optional<double> total_wall_s;          ///< from the subject's summary.json
-    std::optional<long long> faces;              ///< of the last stage's result
+    int exit_code = -1;   ///< of the child; 128 + signal number when it was killed
+    double wall_s = 0.0;  ///< measured by the cohort, from start to exit of the child
+    std::optional<double> total_wall_s;                ///< from the subject's summary.json
+    std::optional<long long> faces;                    ///< of the last stage's result
     std::optional<long long> regions, regions_closed;  ///< of the last stage's result
-    std::optional<long long> nodes, tets;        ///< a tetrahedral result
-    std::optional<double> skewness_over_08;      ///< fraction of tets with skewness > 0.8
-    std::optional<double> min_dihedral_deg;      ///< smallest dihedral angle of the tets
-    std::string error;     ///< failed: the child's last "frontmesh: error:" line, without that prefix
+    std::optional<long long> nodes, tets;              ///< a tetrahedral result
+    std::optional<double> skewness_over_08;            ///< fraction of tets with skewness > 0.8
+    std::optional<double> min_dihedral_deg;            ///< smallest dihedral angle of the tets
+    std::string error;  ///< failed: the child's last "frontmesh: error:" line, without that prefix
 };
 
 struct CohortResult {

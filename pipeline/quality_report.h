@@ -16,14 +16,14 @@ namespace frontmesh::pipeline {
 
 /// Histograms of one mesh. Plain doubles: these report, they decide nothing.
 struct QualityHistograms {
-    static constexpr int kSkewBins = 20;      ///< over [0, 1], 0.05 wide
-    static constexpr int kDihedralBins = 36;  ///< over [0, 180] degrees, 5 wide
+    static constexpr int kSkewBins = 20;                    ///< over [0, 1], 0.05 wide
+    static constexpr int kDihedralBins = 36;                ///< over [0, 180] degrees, 5 wide
     std::array<std::size_t, kSkewBins> surface_skewness{};  ///< mesh.faces, Eq. 2
     std::array<std::size_t, kSkewBins> tet_skewness{};      ///< Eq. 1
     std::array<std::size_t, kDihedralBins> dihedral{};      ///< all six angles of every tet
     std::array<std::size_t, kDihedralBins> min_dihedral{};  ///< smallest angle per tet
     std::size_t faces = 0, tets = 0;
-    std::size_t surface_over_08 = 0, tet_over_08 = 0;       ///< skewness > 0.8
+    std::size_t surface_over_08 = 0, tet_over_08 = 0;  ///< skewness > 0.8
     double surface_mean = 0.0, tet_mean = 0.0, tet_max = 0.0;
     double min_dihedral_deg = 180.0, max_dihedral_deg = 0.0;
     /// Per region: tets, mean skewness, tets with skewness > 0.8, smallest dihedral angle.
@@ -46,8 +46,9 @@ struct HistogramSeries {
     std::string name;
     std::vector<std::size_t> counts;
 };
-std::string svg_histogram(const std::string& title, const std::string& x_label, double lo, double hi,
-                          const std::vector<HistogramSeries>& series, double mark_from = 2.0);
+std::string svg_histogram(const std::string& title, const std::string& x_label, double lo,
+                          double hi, const std::vector<HistogramSeries>& series,
+                          double mark_from = 2.0);
 
 /// Writes surface_skewness.svg, tet_skewness.svg, dihedral.svg and report.html into `dir`
 /// (atomically; the folder is created). `before` is the mesh before refinement (the tetra
@@ -60,8 +61,8 @@ std::vector<std::string> write_quality_report(const std::string& dir, const core
 /// The same with the histograms of the mesh before refinement (`before` may be null): the
 /// runner keeps them from the tetra stage of the same run instead of reading its checkpoint.
 /// `figures` as for quality_histograms.
-std::vector<std::string> write_quality_report(const std::string& dir, const core::TetMesh& mesh,
-                                              const QualityHistograms* before, const std::string& title,
-                                              const std::vector<core::TetFigures>* figures = nullptr);
+std::vector<std::string> write_quality_report(
+    const std::string& dir, const core::TetMesh& mesh, const QualityHistograms* before,
+    const std::string& title, const std::vector<core::TetFigures>* figures = nullptr);
 
 }  // namespace frontmesh::pipeline

@@ -4,11 +4,11 @@
 #include <filesystem>
 #include <functional>
 #include <map>
+#include <sstream>
 #include <string_view>
 #include <type_traits>
 #include <utility>
 #include <variant>
-#include <sstream>
 
 #include <yaml-cpp/yaml.h>
 
@@ -62,11 +62,13 @@ bool as_bool(const YAML::Node& node, const Where& where) {
 }
 
 std::string as_string(const YAML::Node& node, const Where& where) {
-    if (!node.IsScalar() || node.Scalar().empty()) where.fail("expected a non-empty text, got " + describe(node));
+    if (!node.IsScalar() || node.Scalar().empty())
+        where.fail("expected a non-empty text, got " + describe(node));
     return node.Scalar();
 }
 
-std::string as_choice(const YAML::Node& node, const Where& where, const std::vector<std::string>& choices) {
+std::string as_choice(const YAML::Node& node, const Where& where,
+                      const std::vector<std::string>& choices) {
     const std::string value = node.IsScalar() ? node.Scalar() : std::string();
     if (std::find(choices.begin(), choices.end(), value) == choices.end()) {
         std::string list;
@@ -91,7 +93,8 @@ std::size_t edit_distance(const std::string& a, const std::string& b) {
         row[0] = i;
         for (std::size_t j = 1; j <= b.size(); ++j) {
             const std::size_t up = row[j];
-            row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
+            row[j] =
+                std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
             diagonal = up;
         }
     }
@@ -304,7 +307,8 @@ const std::vector<KeySpec>& key_specs() {
     FM_THROW(InputError, message);
 }
 
-void apply_key(const std::string& key, const YAML::Node& value, Recipe& recipe, const std::string& origin) {
+void apply_key(const std::string& key, const YAML::Node& value, Recipe& recipe,
+               const std::string& origin) {
     for (const auto& spec : key_specs())
         if (spec.path == key) {
             if (value.IsNull() && spec.default_yaml == "null") return;  // explicit "not set"
@@ -326,15 +330,18 @@ Recipe load_recipe(const std::string& path, const std::vector<std::string>& over
     if (!fs::exists(path)) FM_THROW(InputError, "recipe '" + path + "' does not exist");
     recipe.path = fs::absolute(path).lexically_normal().string();
     for (const auto& spec : key_specs())
-        if (spec.default_yaml != "null") spec.apply(YAML::Load(spec.default_yaml), recipe, Where{"defaults", spec.path});
+        if (spec.default_yaml != "null")
+            spec.apply(YAML::Load(spec.default_yaml), recipe, Where{"defaults", spec.path});
 
     YAML::Node root;
     try {
         root = YAML::LoadFile(path);
     } catch (const YAML::Exception& e) {
-        FM_THROW(InputError, path + ":" + std::to_string(e.mark.line + 1) + ": YAML syntax error: " + e.msg);
+        FM_THROW(InputError,
+                 path + ":" + std::to_string(e.mark.line + 1) + ": YAML syntax error: " + e.msg);
     }
-    if (!root.IsNull() && !root.IsMap()) FM_THROW(InputError, path + ": the recipe must be a mapping of sections");
+    if (!root.IsNull() && !root.IsMap())
+        FM_THROW(InputError, path + ": the recipe must be a mapping of sections");
     std::vector<std::string> seen;
     if (root.IsMap()) {
         for (const auto& section : root) {
@@ -344,7 +351,8 @@ Recipe load_recipe(const std::string& path, const std::vector<std::string>& over
                 bool known = false;
                 for (const auto& spec : key_specs()) known |= spec.path.rfind(name + ".", 0) == 0;
                 if (!known) unknown_key(name, origin);
-                FM_THROW(InputError, origin + ": " + name + ": expected a section of keys, got " + describe(section.second));
+                FM_THROW(InputError, origin + ": " + name + ": expected a section of keys, got " +
+                                         describe(section.second));
             }
             for (const auto& entry : section.second) {
                 const std::string key = name + "." + entry.first.as<std::string>();
@@ -365,7 +373,8 @@ Recipe load_recipe(const std::string& path, const std::vector<std::string>& over
             FM_THROW(InputError, "--set " + key + ": cannot read the value: " + e.msg);
         }
         // Relative paths given on the command line are relative to the current folder.
-        if ((key == "input.image" || key == "input.surface" || key == "input.label_names") && value.IsScalar())
+        if ((key == "input.image" || key == "input.surface" || key == "input.label_names") &&
+            value.IsScalar())
             value = YAML::Node(fs::absolute(value.Scalar()).lexically_normal().string());
         apply_key(key, value, recipe, "--set");
         seen.push_back(key);
@@ -377,7 +386,8 @@ Recipe load_recipe(const std::string& path, const std::vector<std::string>& over
             const YAML::Node section = root[key.substr(0, dot)];
             if (section.IsMap())
                 for (const auto& entry : section)
-                    if (entry.first.as<std::string>() == key.substr(dot + 1)) return origin_of(path, entry.first);
+                    if (entry.first.as<std::string>() == key.substr(dot + 1))
+                        return origin_of(path, entry.first);
         }
         return std::find(seen.begin(), seen.end(), key) != seen.end() ? std::string("--set") : path;
     };
@@ -385,15 +395,18 @@ Recipe load_recipe(const std::string& path, const std::vector<std::string>& over
     if (in.image.empty() == in.surface.empty())
         FM_THROW(InputError, path + ": input: give exactly one of input.image or input.surface");
     if (!in.image.empty() && !fs::exists(in.image) && in.image.find('%') == std::string::npos)
-        FM_THROW(InputError, origin_for("input.image") + ": input.image: '" + in.image + "' does not exist");
+        FM_THROW(InputError,
+                 origin_for("input.image") + ": input.image: '" + in.image + "' does not exist");
     if (!in.surface.empty() && !fs::exists(in.surface))
-        FM_THROW(InputError, origin_for("input.surface") + ": input.surface: '" + in.surface + "' does not exist");
-    if (!in.label_names.empty() && !fs::exists(in.label_names))
-        FM_THROW(InputError, origin_for("input.label_names") + ": input.label_names: '" + in.label_names +
+        FM_THROW(InputError, origin_for("input.surface") + ": input.surface: '" + in.surface +
                                  "' does not exist");
+    if (!in.label_names.empty() && !fs::exists(in.label_names))
+        FM_THROW(InputError, origin_for("input.label_names") + ": input.label_names: '" +
+                                 in.label_names + "' does not exist");
     if (in.threshold && !(in.labels.empty() || in.labels == std::vector<core::Label>{1}))
         FM_THROW(InputError, origin_for("input.labels") +
-                                 ": input.labels: with input.threshold the mask has the single label 1; use [1] or all");
+                                 ": input.labels: with input.threshold the mask has the single "
+                                 "label 1; use [1] or all");
     recipe.extract.labels = in.labels;
     surface::validate(recipe.extract);
     surface::validate(recipe.repair);
@@ -416,7 +429,8 @@ std::string canonical_params(const Recipe& recipe, const std::string& section) {
     if (section == "input") {
         s << "image=" << recipe.input.image << ";surface=" << recipe.input.surface << ";labels=";
         for (auto l : recipe.input.labels) s << l << ',';
-        s << ";threshold=" << (recipe.input.threshold ? std::to_string(*recipe.input.threshold) : "none");
+        s << ";threshold="
+          << (recipe.input.threshold ? std::to_string(*recipe.input.threshold) : "none");
         if (recipe.input.spacing) s << ";spacing=" << recipe.input.spacing->transpose();
         s << ";frame=" << core::frame_name(recipe.output.frame);
     } else if (section == "extract") {
@@ -438,7 +452,8 @@ std::string canonical_params(const Recipe& recipe, const std::string& section) {
           << ";max=" << m.max_edge_length << ";curvature=" << m.curvature_angle_deg
           << ";layers=" << m.thickness_layers << ";feature=" << m.feature_angle_deg
           << ";smoothing=" << m.smoothing_iterations << ";flip=" << m.flip_max_dihedral_deg
-          << ";check_si=" << m.check_self_intersections << ";max_volume=" << m.max_volume_change_percent;
+          << ";check_si=" << m.check_self_intersections
+          << ";max_volume=" << m.max_volume_change_percent;
         for (const auto& [label, size] : m.label_edge_length) s << ";label" << label << "=" << size;
     } else if (section == "tetra") {
         const auto& t = recipe.tetra;
@@ -447,10 +462,11 @@ std::string canonical_params(const Recipe& recipe, const std::string& section) {
           << ";closing=" << t.max_closing_rounds;
     } else if (section == "refine") {
         const auto& f = recipe.refine;
-        s << "node_removal=" << f.node_removal << ";max_tets=" << f.node_removal_max_tets << ";passes=" << f.passes
-          << ";smoothing=" << f.smoothing << ";sweeps=" << f.smoothing_sweeps
-          << ";smoothing_skewness=" << f.smoothing_skewness << ";flip_skewness=" << f.flip_skewness
-          << ";ring=" << f.flip_max_ring << ";delaunay=" << f.flip_delaunay_test << ";flip_sweeps=" << f.flip_sweeps
+        s << "node_removal=" << f.node_removal << ";max_tets=" << f.node_removal_max_tets
+          << ";passes=" << f.passes << ";smoothing=" << f.smoothing
+          << ";sweeps=" << f.smoothing_sweeps << ";smoothing_skewness=" << f.smoothing_skewness
+          << ";flip_skewness=" << f.flip_skewness << ";ring=" << f.flip_max_ring
+          << ";delaunay=" << f.flip_delaunay_test << ";flip_sweeps=" << f.flip_sweeps
           << ";sliver=" << f.sliver_pass << ";sliver_deg=" << f.sliver_dihedral_deg
           << ";sliver_sweeps=" << f.sliver_sweeps;
     } else {

@@ -17,17 +17,17 @@
 namespace frontmesh::pipeline {
 
 struct InputSection {
-    std::string image;                 ///< image file or folder (absolute), or empty
-    std::string surface;               ///< triangle surface file (absolute), or empty
-    std::vector<core::Label> labels;   ///< empty = all
-    std::optional<double> threshold;   ///< grayscale: value > threshold is label 1
+    std::string image;                       ///< image file or folder (absolute), or empty
+    std::string surface;                     ///< triangle surface file (absolute), or empty
+    std::vector<core::Label> labels;         ///< empty = all
+    std::optional<double> threshold;         ///< grayscale: value > threshold is label 1
     std::optional<Eigen::Vector3d> spacing;  ///< mm, slice stacks
-    std::string label_names;           ///< label table file (absolute), or empty: the table
-                                       ///< beside the image when there is one
+    std::string label_names;                 ///< label table file (absolute), or empty: the table
+                                             ///< beside the image when there is one
 };
 
 struct OutputSection {
-    std::string dir;                    ///< absolute
+    std::string dir;  ///< absolute
     core::Frame frame = core::Frame::Lps;
     std::vector<std::string> formats{"vtu"};  ///< exports of a tet mesh: mesh.EXT
     bool quality_report = true;               ///< report.html + SVG histograms after refine

@@ -51,11 +51,21 @@ std::string json_quote(const std::string& text) {
     std::string out = "\"";
     for (unsigned char c : text) {
         switch (c) {
-            case '"': out += "\\\""; break;
-            case '\\': out += "\\\\"; break;
-            case '\n': out += "\\n"; break;
-            case '\t': out += "\\t"; break;
-            case '\r': out += "\\r"; break;
+            case '"':
+                out += "\\\"";
+                break;
+            case '\\':
+                out += "\\\\";
+                break;
+            case '\n':
+                out += "\\n";
+                break;
+            case '\t':
+                out += "\\t";
+                break;
+            case '\r':
+                out += "\\r";
+                break;
             default:
                 if (c < 0x20) {
                     char buf[8];
@@ -80,25 +90,29 @@ std::string json_number(double value) {
 SurfaceReport surface_report(const core::SurfaceNetwork& surface) {
     const SurfaceFigures f = figures(surface);
     std::ostringstream s;
-    s << "{\"vertices\": " << f.vertices << ", \"faces\": " << f.faces << ", \"regions\": " << f.regions
-      << ", \"regions_closed\": " << f.closed << ", \"regions_oriented\": " << f.oriented
-      << ", \"eta_mean\": " << json_number(f.eta_mean) << ", \"eta_max\": " << json_number(f.eta_max)
+    s << "{\"vertices\": " << f.vertices << ", \"faces\": " << f.faces
+      << ", \"regions\": " << f.regions << ", \"regions_closed\": " << f.closed
+      << ", \"regions_oriented\": " << f.oriented << ", \"eta_mean\": " << json_number(f.eta_mean)
+      << ", \"eta_max\": " << json_number(f.eta_max)
       << ", \"min_angle_deg\": " << json_number(f.min_angle_min)
       << ", \"fraction_min_angle_below_20\": " << json_number(f.below20)
-      << ", \"fraction_min_angle_below_30\": " << json_number(f.below30) << ", \"region_boundaries\": [";
+      << ", \"fraction_min_angle_below_30\": " << json_number(f.below30)
+      << ", \"region_boundaries\": [";
     for (std::size_t i = 0; i < f.checks.size(); ++i) {
         const auto& c = f.checks[i];
         s << (i ? ", " : "") << "{\"region\": " << c.region << ", \"faces\": " << c.faces
           << ", \"volume_mm3\": " << json_number(c.volume) << ", \"open_edges\": " << c.open_edges
-          << ", \"misoriented_edges\": " << c.misoriented_edges << ", \"nonmanifold_edges\": " << c.nonmanifold_edges
-          << "}";
+          << ", \"misoriented_edges\": " << c.misoriented_edges
+          << ", \"nonmanifold_edges\": " << c.nonmanifold_edges << "}";
     }
     s << "]}";
     char buf[320];
-    std::snprintf(buf, sizeof buf,
-                  "%zu vertices, %zu faces, %zu regions (%zu closed, %zu oriented), eta mean %.3f max %.3f, "
-                  "min angle %.1f deg",
-                  f.vertices, f.faces, f.regions, f.closed, f.oriented, f.eta_mean, f.eta_max, f.min_angle_min);
+    std::snprintf(
+        buf, sizeof buf,
+        "%zu vertices, %zu faces, %zu regions (%zu closed, %zu oriented), eta mean %.3f max %.3f, "
+        "min angle %.1f deg",
+        f.vertices, f.faces, f.regions, f.closed, f.oriented, f.eta_mean, f.eta_max,
+        f.min_angle_min);
     return {s.str(), buf};
 }
 
@@ -129,19 +143,22 @@ std::string quality_json(const volume::TetQuality& q) {
 TetReport tet_report(const core::TetMesh& mesh, const std::vector<core::TetFigures>* figures) {
     const volume::TetMeshCheck c = volume::check_tet_mesh(mesh, figures);
     std::ostringstream s;
-    s << "{\"nodes\": " << c.nodes << ", \"tets\": " << c.tets << ", \"boundary_faces\": "
-      << mesh.face_count() << ", \"valid\": " << (c.valid() ? "true" : "false")
-      << ", \"inverted_tets\": " << c.inverted_tets << ", \"nonconforming_faces\": "
-      << c.nonconforming_faces << ", \"open_faces\": " << c.open_faces << ", \"missing_faces\": "
-      << c.missing_faces << ", \"wrong_side_faces\": " << c.wrong_side_faces
+    s << "{\"nodes\": " << c.nodes << ", \"tets\": " << c.tets
+      << ", \"boundary_faces\": " << mesh.face_count()
+      << ", \"valid\": " << (c.valid() ? "true" : "false")
+      << ", \"inverted_tets\": " << c.inverted_tets
+      << ", \"nonconforming_faces\": " << c.nonconforming_faces
+      << ", \"open_faces\": " << c.open_faces << ", \"missing_faces\": " << c.missing_faces
+      << ", \"wrong_side_faces\": " << c.wrong_side_faces
       << ", \"unused_nodes\": " << c.unused_nodes << ", \"volume_mm3\": " << json_number(c.volume)
       << ", \"enclosed_volume_mm3\": " << json_number(c.enclosed_volume)
       << ", \"quality\": " << quality_json(c.quality) << ", \"regions\": [";
     bool first = true;
     for (const auto& [label, q] : c.region_quality) {
         const auto enclosed = c.region_enclosed_volume.find(label);
-        s << (first ? "" : ", ") << "{\"region\": " << label << ", \"volume_mm3\": "
-          << json_number(c.region_volume.at(label)) << ", \"enclosed_volume_mm3\": "
+        s << (first ? "" : ", ") << "{\"region\": " << label
+          << ", \"volume_mm3\": " << json_number(c.region_volume.at(label))
+          << ", \"enclosed_volume_mm3\": "
           << json_number(enclosed != c.region_enclosed_volume.end() ? enclosed->second : 0.0)
           << ", \"quality\": " << quality_json(q) << "}";
         first = false;

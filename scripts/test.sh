@@ -4,6 +4,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/install-deps.sh
+bash scripts/check-format.sh   # every C++ source as .clang-format says (STYLE §5)
 bash scripts/build.sh -DFRONTMESH_BUILD_TESTS=ON
 cd build
 ctest --output-on-failure -j"$(nproc)" "$@"

@@ -50,14 +50,14 @@ Eigen::Vector3d closest_point_on_triangle(const Eigen::Vector3d& p, const Eigen:
 // vertex->face CSR (about 28 B per face): about 200 MB per million patch faces.
 struct BackgroundPatch::Impl {
     const core::SurfaceNetwork* background = nullptr;
-    std::vector<std::int32_t> faces;                          // local -> global face id
+    std::vector<std::int32_t> faces;                               // local -> global face id
     std::vector<std::pair<std::int32_t, std::int32_t>> by_global;  // (global, local), sorted
-    std::vector<double> corners;                              // 9 per local face (oriented)
-    std::vector<double> normals;                              // 3 per local face
-    std::vector<double> smooth;                               // 3 per local face
-    std::vector<std::array<std::int32_t, 3>> local_vertices;  // local vertex ids per face
-    std::vector<std::int32_t> star_offsets, star_faces;       // local vertex -> local faces
-    std::vector<Eigen::Vector3d> vertex_xyz;                  // per local vertex
+    std::vector<double> corners;                                   // 9 per local face (oriented)
+    std::vector<double> normals;                                   // 3 per local face
+    std::vector<double> smooth;                                    // 3 per local face
+    std::vector<std::array<std::int32_t, 3>> local_vertices;       // local vertex ids per face
+    std::vector<std::int32_t> star_offsets, star_faces;            // local vertex -> local faces
+    std::vector<Eigen::Vector3d> vertex_xyz;                       // per local vertex
     core::Adt tree{core::AdtBox{Eigen::Vector3d::Zero(), Eigen::Vector3d::Ones()},
                    core::AdtItems::boxes};
     double area = 0.0;
@@ -103,7 +103,8 @@ BackgroundPatch::BackgroundPatch(const core::SurfaceNetwork& background,
         if (flip) std::swap(v[1], v[2]);
         for (int k = 0; k < 3; ++k) {
             const Eigen::Vector3d p = background.point(v[static_cast<std::size_t>(k)]);
-            for (int c = 0; c < 3; ++c) m.corners[9 * static_cast<std::size_t>(f) + 3 * k + c] = p[c];
+            for (int c = 0; c < 3; ++c)
+                m.corners[9 * static_cast<std::size_t>(f) + 3 * k + c] = p[c];
             domain.extend(p);
             vertex_uses.push_back({v[static_cast<std::size_t>(k)], 3 * f + k});
         }
@@ -111,7 +112,8 @@ BackgroundPatch::BackgroundPatch(const core::SurfaceNetwork& background,
         const Eigen::Vector3d nrm = (b - a).cross(c - a);
         const double len = nrm.norm();
         m.area += 0.5 * len;
-        const Eigen::Vector3d unit = len > 0.0 ? Eigen::Vector3d(nrm / len) : Eigen::Vector3d::Zero();
+        const Eigen::Vector3d unit =
+            len > 0.0 ? Eigen::Vector3d(nrm / len) : Eigen::Vector3d::Zero();
         for (int c2 = 0; c2 < 3; ++c2) m.normals[3 * static_cast<std::size_t>(f) + c2] = unit[c2];
     }
     std::sort(m.by_global.begin(), m.by_global.end());
@@ -134,18 +136,20 @@ BackgroundPatch::BackgroundPatch(const core::SurfaceNetwork& background,
     m.vertex_xyz.resize(static_cast<std::size_t>(local_vertex) + 1);
     for (std::int32_t f = 0; f < n; ++f)
         for (int k = 0; k < 3; ++k)
-            m.vertex_xyz[static_cast<std::size_t>(m.local_vertices[static_cast<std::size_t>(f)][static_cast<std::size_t>(k)])] =
+            m.vertex_xyz[static_cast<std::size_t>(
+                m.local_vertices[static_cast<std::size_t>(f)][static_cast<std::size_t>(k)])] =
                 m.corner(f, k);
     m.star_offsets.assign(static_cast<std::size_t>(local_vertex) + 2, 0);
     for (std::size_t i = 0; i < vertex_uses.size(); ++i)
         ++m.star_offsets[static_cast<std::size_t>(slot_vertex[i]) + 1];
-    for (std::size_t v = 1; v < m.star_offsets.size(); ++v) m.star_offsets[v] += m.star_offsets[v - 1];
+    for (std::size_t v = 1; v < m.star_offsets.size(); ++v)
+        m.star_offsets[v] += m.star_offsets[v - 1];
     m.star_faces.resize(vertex_uses.size());
     {
         std::vector<std::int32_t> fill(m.star_offsets.begin(), m.star_offsets.end() - 1);
         for (std::size_t i = 0; i < vertex_uses.size(); ++i)
-            m.star_faces[static_cast<std::size_t>(fill[static_cast<std::size_t>(slot_vertex[i])]++)] =
-                vertex_uses[i].second / 3;
+            m.star_faces[static_cast<std::size_t>(
+                fill[static_cast<std::size_t>(slot_vertex[i])]++)] = vertex_uses[i].second / 3;
     }
 
     // Smoothed normals: area-weighted over the faces around the three corners.
@@ -153,7 +157,8 @@ BackgroundPatch::BackgroundPatch(const core::SurfaceNetwork& background,
     for (std::int32_t f = 0; f < n; ++f) {
         Eigen::Vector3d sum = Eigen::Vector3d::Zero();
         for (int k = 0; k < 3; ++k) {
-            const std::int32_t v = m.local_vertices[static_cast<std::size_t>(f)][static_cast<std::size_t>(k)];
+            const std::int32_t v =
+                m.local_vertices[static_cast<std::size_t>(f)][static_cast<std::size_t>(k)];
             for (std::int32_t i = m.star_offsets[static_cast<std::size_t>(v)];
                  i < m.star_offsets[static_cast<std::size_t>(v) + 1]; ++i) {
                 const std::int32_t g = m.star_faces[static_cast<std::size_t>(i)];
@@ -162,9 +167,9 @@ BackgroundPatch::BackgroundPatch(const core::SurfaceNetwork& background,
             }
         }
         const double len = sum.norm();
-        const Eigen::Vector3d unit =
-            len > 0.0 ? Eigen::Vector3d(sum / len)
-                      : Eigen::Vector3d(Eigen::Map<const Eigen::Vector3d>(&m.normals[3 * static_cast<std::size_t>(f)]));
+        const Eigen::Vector3d unit = len > 0.0 ? Eigen::Vector3d(sum / len)
+                                               : Eigen::Vector3d(Eigen::Map<const Eigen::Vector3d>(
+                                                     &m.normals[3 * static_cast<std::size_t>(f)]));
         for (int c = 0; c < 3; ++c) m.smooth[3 * static_cast<std::size_t>(f) + c] = unit[c];
     }
 
@@ -221,7 +226,8 @@ BackgroundPatch::Projection BackgroundPatch::project(const Eigen::Vector3d& p,
         double best = cur_d;
         Eigen::Vector3d best_q = cur_q;
         for (int k = 0; k < 3; ++k) {
-            const std::int32_t v = m.local_vertices[static_cast<std::size_t>(cur)][static_cast<std::size_t>(k)];
+            const std::int32_t v =
+                m.local_vertices[static_cast<std::size_t>(cur)][static_cast<std::size_t>(k)];
             for (std::int32_t i = m.star_offsets[static_cast<std::size_t>(v)];
                  i < m.star_offsets[static_cast<std::size_t>(v) + 1]; ++i) {
                 const std::int32_t f = m.star_faces[static_cast<std::size_t>(i)];
@@ -246,8 +252,7 @@ BackgroundPatch::Projection BackgroundPatch::project(const Eigen::Vector3d& p,
 }
 
 std::optional<BackgroundPatch::Projection> BackgroundPatch::project_oriented(
-    const Eigen::Vector3d& p, const Eigen::Vector3d& normal, double radius,
-    double min_cos) const {
+    const Eigen::Vector3d& p, const Eigen::Vector3d& normal, double radius, double min_cos) const {
     const Impl& m = *impl_;
     thread_local std::vector<std::int32_t> ids;
     m.tree.query_sphere(p, radius, ids);
@@ -300,7 +305,8 @@ double BackgroundPatch::path_distance(const Eigen::Vector3d& p, std::int32_t fac
         }
     };
     for (int k = 0; k < 3; ++k) {
-        const std::int32_t v = m.local_vertices[static_cast<std::size_t>(fp)][static_cast<std::size_t>(k)];
+        const std::int32_t v =
+            m.local_vertices[static_cast<std::size_t>(fp)][static_cast<std::size_t>(k)];
         relax(v, (m.vertex_xyz[static_cast<std::size_t>(v)] - p).norm());
     }
     const auto& targets = m.local_vertices[static_cast<std::size_t>(fq)];
@@ -310,10 +316,12 @@ double BackgroundPatch::path_distance(const Eigen::Vector3d& p, std::int32_t fac
         heap.pop();
         if (d > dist[static_cast<std::size_t>(v)] || d >= best) continue;
         const Eigen::Vector3d& xv = m.vertex_xyz[static_cast<std::size_t>(v)];
-        if (v == targets[0] || v == targets[1] || v == targets[2]) best = std::min(best, d + (xv - q).norm());
+        if (v == targets[0] || v == targets[1] || v == targets[2])
+            best = std::min(best, d + (xv - q).norm());
         for (std::int32_t i = m.star_offsets[static_cast<std::size_t>(v)];
              i < m.star_offsets[static_cast<std::size_t>(v) + 1]; ++i) {
-            const auto& tri = m.local_vertices[static_cast<std::size_t>(m.star_faces[static_cast<std::size_t>(i)])];
+            const auto& tri = m.local_vertices[static_cast<std::size_t>(
+                m.star_faces[static_cast<std::size_t>(i)])];
             for (const std::int32_t w : tri)
                 if (w != v) relax(w, d + (m.vertex_xyz[static_cast<std::size_t>(w)] - xv).norm());
         }
@@ -324,17 +332,19 @@ double BackgroundPatch::path_distance(const Eigen::Vector3d& p, std::int32_t fac
 Eigen::Vector3d BackgroundPatch::normal(std::int32_t face) const {
     const Impl& m = *impl_;
     const std::int32_t f = m.local_of(face);
-    if (f >= 0) return Eigen::Map<const Eigen::Vector3d>(&m.normals[3 * static_cast<std::size_t>(f)]);
-    FM_THROW(InternalError, "remesh: normal of face " + std::to_string(face) +
-                                " outside the patch");
+    if (f >= 0)
+        return Eigen::Map<const Eigen::Vector3d>(&m.normals[3 * static_cast<std::size_t>(f)]);
+    FM_THROW(InternalError,
+             "remesh: normal of face " + std::to_string(face) + " outside the patch");
 }
 
 Eigen::Vector3d BackgroundPatch::smooth_normal(std::int32_t face) const {
     const Impl& m = *impl_;
     const std::int32_t f = m.local_of(face);
-    if (f >= 0) return Eigen::Map<const Eigen::Vector3d>(&m.smooth[3 * static_cast<std::size_t>(f)]);
-    FM_THROW(InternalError, "remesh: normal of face " + std::to_string(face) +
-                                " outside the patch");
+    if (f >= 0)
+        return Eigen::Map<const Eigen::Vector3d>(&m.smooth[3 * static_cast<std::size_t>(f)]);
+    FM_THROW(InternalError,
+             "remesh: normal of face " + std::to_string(face) + " outside the patch");
 }
 
 const std::vector<std::int32_t>& BackgroundPatch::faces() const { return impl_->faces; }

@@ -4,16 +4,16 @@
 #include <array>
 #include <bit>
 #include <cmath>
-#include <cstdlib>
 #include <cstdint>
+#include <cstdlib>
 #include <map>
 #include <set>
 #include <sstream>
 
 #include <vtkCellArray.h>
 #include <vtkDiscreteFlyingEdges3D.h>
-#include <vtkFlyingEdges3D.h>
 #include <vtkFloatArray.h>
+#include <vtkFlyingEdges3D.h>
 #include <vtkImageData.h>
 #include <vtkImageGaussianSmooth.h>
 #include <vtkNew.h>
@@ -31,8 +31,8 @@ namespace {
 using core::Label;
 
 // Octant o = x + 2y + 4z of a 2x2x2 block of voxels; face neighbours differ in one bit.
-constexpr std::array<std::array<int, 3>, 8> kOctant = {{{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {1, 1, 0},
-                                                        {0, 0, 1}, {1, 0, 1}, {0, 1, 1}, {1, 1, 1}}};
+constexpr std::array<std::array<int, 3>, 8> kOctant = {
+    {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {1, 1, 0}, {0, 0, 1}, {1, 0, 1}, {0, 1, 1}, {1, 1, 1}}};
 
 // True when the octants in `mask` are connected through shared faces inside the block.
 bool is_face_connected(unsigned mask) {
@@ -335,7 +335,8 @@ struct IndexToPhysical {
 // spikes and slits, whose surfaces fold too sharply for the remesher, and keeps every
 // interface shared. Each label is blurred within its bounding box grown by 3 sigma, so the
 // cost is about the sum of the labels' boxes. Returns the voxels changed.
-std::size_t smooth_labels(const core::LabelImage& image, std::vector<Label>& labels, double sigma_mm) {
+std::size_t smooth_labels(const core::LabelImage& image, std::vector<Label>& labels,
+                          double sigma_mm) {
     const auto& d = image.dims;
     std::array<int, 3> radius{};
     std::array<std::vector<float>, 3> kernel;
@@ -370,16 +371,21 @@ std::size_t smooth_labels(const core::LabelImage& image, std::vector<Label>& lab
         int lo[3], n[3];
         for (int a = 0; a < 3; ++a) {
             lo[a] = std::max(0, b[std::size_t(a)] - radius[std::size_t(a)]);
-            const int hi = std::min(d[std::size_t(a)] - 1, b[std::size_t(a) + 3] + radius[std::size_t(a)]);
+            const int hi =
+                std::min(d[std::size_t(a)] - 1, b[std::size_t(a) + 3] + radius[std::size_t(a)]);
             n[a] = hi - lo[a] + 1;
         }
         const std::size_t count = std::size_t(n[0]) * std::size_t(n[1]) * std::size_t(n[2]);
         field.assign(count, 0.0f);
-        auto at = [&](int x, int y, int z) { return (std::size_t(z) * std::size_t(n[1]) + std::size_t(y)) * std::size_t(n[0]) + std::size_t(x); };
+        auto at = [&](int x, int y, int z) {
+            return (std::size_t(z) * std::size_t(n[1]) + std::size_t(y)) * std::size_t(n[0]) +
+                   std::size_t(x);
+        };
         for (int z = 0; z < n[2]; ++z)
             for (int y = 0; y < n[1]; ++y)
                 for (int x = 0; x < n[0]; ++x)
-                    field[at(x, y, z)] = labels[image.index(lo[0] + x, lo[1] + y, lo[2] + z)] == label ? 1.0f : 0.0f;
+                    field[at(x, y, z)] =
+                        labels[image.index(lo[0] + x, lo[1] + y, lo[2] + z)] == label ? 1.0f : 0.0f;
         // Separable blur, one axis at a time; samples outside the image repeat the border.
         for (int a = 0; a < 3; ++a) {
             tmp.assign(count, 0.0f);
@@ -404,7 +410,8 @@ std::size_t smooth_labels(const core::LabelImage& image, std::vector<Label>& lab
                 for (int x = 0; x < n[0]; ++x) {
                     const std::size_t v = image.index(lo[0] + x, lo[1] + y, lo[2] + z);
                     const float f = field[at(x, y, z)];
-                    if (f > best[v]) best[v] = f, arg[v] = label;  // labels ascend: ties keep the smaller
+                    if (f > best[v])
+                        best[v] = f, arg[v] = label;  // labels ascend: ties keep the smaller
                 }
     }
     std::size_t changed = 0;
@@ -432,7 +439,8 @@ core::SurfaceNetwork surface_nets(const core::LabelImage& image, std::vector<Lab
             for (int i = 0; i < cx; ++i) {
                 std::array<Label, 8> l;
                 for (int o = 0; o < 8; ++o)
-                    l[o] = labels[grid.index(i + kOctant[o][0], j + kOctant[o][1], k + kOctant[o][2])];
+                    l[o] =
+                        labels[grid.index(i + kOctant[o][0], j + kOctant[o][1], k + kOctant[o][2])];
                 if (std::all_of(l.begin(), l.end(), [&](Label x) { return x == l[0]; })) continue;
                 Eigen::Vector3d sum = Eigen::Vector3d::Zero();
                 int crossings = 0;
@@ -537,7 +545,8 @@ core::SurfaceNetwork surface_nets(const core::LabelImage& image, std::vector<Lab
             // A margin keeps the vertices of neighbouring cubes apart: clamped onto a shared
             // cube face or corner they would coincide and fold the net there.
             for (int d = 0; d < 3; ++d)
-                p[d] = std::clamp(p[d], cube_of_vertex[v][d] + kCubeMargin, cube_of_vertex[v][d] + 1 - kCubeMargin);
+                p[d] = std::clamp(p[d], cube_of_vertex[v][d] + kCubeMargin,
+                                  cube_of_vertex[v][d] + 1 - kCubeMargin);
             next[v] = p;
         }
         position.swap(next);
@@ -575,7 +584,8 @@ core::SurfaceNetwork surface_nets(const core::LabelImage& image, std::vector<Lab
             std::vector<std::int32_t> vertices;
             for (const auto& [f, g] : pairs)
                 for (std::int32_t face : {f, g})
-                    for (std::int32_t v : out.faces[static_cast<std::size_t>(face)]) vertices.push_back(v);
+                    for (std::int32_t v : out.faces[static_cast<std::size_t>(face)])
+                        vertices.push_back(v);
             std::sort(vertices.begin(), vertices.end());
             vertices.erase(std::unique(vertices.begin(), vertices.end()), vertices.end());
             for (std::int32_t v : vertices) {
@@ -594,7 +604,8 @@ core::SurfaceNetwork surface_nets(const core::LabelImage& image, std::vector<Lab
 }
 
 core::SurfaceNetwork flying_edges(const core::LabelImage& image, const std::vector<Label>& labels,
-                                  Label label, const ExtractParams& params, core::StageContext& ctx) {
+                                  Label label, const ExtractParams& params,
+                                  core::StageContext& ctx) {
     vtkNew<vtkImageData> mask;
     mask->SetDimensions(image.dims[0], image.dims[1], image.dims[2]);
     mask->SetOrigin(0.0, 0.0, 0.0);
@@ -613,7 +624,8 @@ core::SurfaceNetwork flying_edges(const core::LabelImage& image, const std::vect
         as_float->SetDimensions(image.dims[0], image.dims[1], image.dims[2]);
         vtkNew<vtkFloatArray> values;
         values->SetNumberOfValues(scalars->GetNumberOfValues());
-        for (vtkIdType v = 0; v < scalars->GetNumberOfValues(); ++v) values->SetValue(v, scalars->GetValue(v));
+        for (vtkIdType v = 0; v < scalars->GetNumberOfValues(); ++v)
+            values->SetValue(v, scalars->GetValue(v));
         as_float->GetPointData()->SetScalars(values);
         vtkNew<vtkImageGaussianSmooth> blur;
         blur->SetInputData(as_float);
@@ -656,7 +668,8 @@ core::SurfaceNetwork flying_edges(const core::LabelImage& image, const std::vect
     vtkNew<vtkIdList> ids;
     for (polys->InitTraversal(); polys->GetNextCell(ids);) {
         FM_CHECK(ids->GetNumberOfIds() == 3);
-        out.add_face(static_cast<std::int32_t>(ids->GetId(0)), static_cast<std::int32_t>(ids->GetId(1)),
+        out.add_face(static_cast<std::int32_t>(ids->GetId(0)),
+                     static_cast<std::int32_t>(ids->GetId(1)),
                      static_cast<std::int32_t>(ids->GetId(2)), label, 0);
     }
     // The case table orients every triangle alike; make the enclosed volume positive.
@@ -718,14 +731,17 @@ core::SurfaceNetwork extract(const core::LabelImage& image, const ExtractParams&
     std::vector<Label> labels = cleaned_labels(image, params, ctx);
     const std::set<Label> present = labels_present(labels);
     if (present.empty())
-        FM_THROW(InputError, "input.image: '" + image.source +
-                                 "' has no labelled (non-zero) voxel; for a grayscale image set input.threshold");
+        FM_THROW(
+            InputError,
+            "input.image: '" + image.source +
+                "' has no labelled (non-zero) voxel; for a grayscale image set input.threshold");
     std::set<Label> chosen(params.labels.begin(), params.labels.end());
     if (chosen.empty()) chosen = present;
     for (Label l : chosen)
         if (!present.count(l))
-            FM_THROW(InputError, "input.labels: label " + std::to_string(l) + " is not in '" + image.source +
-                                     "' (labels present: " + label_list(present) + ")");
+            FM_THROW(InputError, "input.labels: label " + std::to_string(l) + " is not in '" +
+                                     image.source + "' (labels present: " + label_list(present) +
+                                     ")");
     ctx.count("extract.labels", static_cast<double>(chosen.size()));
 
     if (chosen.size() != present.size())
@@ -736,7 +752,8 @@ core::SurfaceNetwork extract(const core::LabelImage& image, const ExtractParams&
     if (method == ExtractMethod::Auto)
         method = chosen.size() == 1 ? ExtractMethod::FlyingEdges : ExtractMethod::SurfaceNets;
     if (method == ExtractMethod::FlyingEdges && chosen.size() != 1)
-        FM_THROW(InputError, "extract.method: flying_edges contours one label, " + std::to_string(chosen.size()) +
+        FM_THROW(InputError, "extract.method: flying_edges contours one label, " +
+                                 std::to_string(chosen.size()) +
                                  " are chosen; use surface_nets (or auto) for several labels");
 
     if (method == ExtractMethod::SurfaceNets && params.blur_sigma_mm > 0.0) {
@@ -746,8 +763,8 @@ core::SurfaceNetwork extract(const core::LabelImage& image, const ExtractParams&
         std::string lost;
         for (Label l : chosen)
             if (!left.count(l)) lost += " " + std::to_string(l);
-        ctx.info("extract: label blur (sigma " + std::to_string(params.blur_sigma_mm) + " mm) relabelled " +
-                 std::to_string(changed) + " voxels");
+        ctx.info("extract: label blur (sigma " + std::to_string(params.blur_sigma_mm) +
+                 " mm) relabelled " + std::to_string(changed) + " voxels");
         if (!lost.empty())
             ctx.warn("extract: the label blur removed every voxel of label(s)" + lost +
                      "; lower extract.blur_sigma_mm to keep them");
@@ -760,7 +777,8 @@ core::SurfaceNetwork extract(const core::LabelImage& image, const ExtractParams&
             std::size_t to_outside = 0;
             const std::size_t shrunk = shrink_pinches(Grid{image.dims, labels}, to_outside);
             ctx.count("extract.voxels_given_up_for_manifold", static_cast<double>(shrunk));
-            ctx.count("extract.voxels_given_to_outside_for_manifold", static_cast<double>(to_outside));
+            ctx.count("extract.voxels_given_to_outside_for_manifold",
+                      static_cast<double>(to_outside));
             changed += shrunk;
         }
         ctx.count("extract.voxels_changed_for_manifold", static_cast<double>(changed));
@@ -774,10 +792,13 @@ core::SurfaceNetwork extract(const core::LabelImage& image, const ExtractParams&
     core::SurfaceNetwork out;
     if (method == ExtractMethod::FlyingEdges) {
         ctx.info("extract: VTK discrete flying edges on label " + std::to_string(*chosen.begin()) +
-                 (params.blur_sigma_mm > 0 ? " (blur sigma " + std::to_string(params.blur_sigma_mm) + " mm)" : ""));
+                 (params.blur_sigma_mm > 0
+                      ? " (blur sigma " + std::to_string(params.blur_sigma_mm) + " mm)"
+                      : ""));
         out = flying_edges(image, labels, *chosen.begin(), params, ctx);
     } else {
-        ctx.info("extract: multi-label surface nets on " + std::to_string(chosen.size()) + " labels");
+        ctx.info("extract: multi-label surface nets on " + std::to_string(chosen.size()) +
+                 " labels");
         out = surface_nets(image, labels, params, ctx);
     }
     ctx.count("extract.vertices", static_cast<double>(out.vertex_count()));

@@ -63,9 +63,9 @@ struct Patch {
 
 struct Features {
     std::vector<FeatureCurve> curves;
-    std::vector<std::int32_t> corners;     ///< background vertex ids, increasing
-    std::vector<Patch> patches;            ///< ordered by their smallest face id
-    std::vector<std::int32_t> face_patch;  ///< per background face
+    std::vector<std::int32_t> corners;          ///< background vertex ids, increasing
+    std::vector<Patch> patches;                 ///< ordered by their smallest face id
+    std::vector<std::int32_t> face_patch;       ///< per background face
     std::vector<std::uint8_t> is_feature_edge;  ///< per EdgeTable edge
     EdgeTable edges;
     std::size_t junction_edges = 0;  ///< edges where the region pairs change or > 2 faces meet

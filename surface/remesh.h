@@ -26,18 +26,18 @@ struct RemeshParams {
     /// h, mm, >= 0; 0 = derived from the input: twice the mean background edge length (about
     /// 1.3 voxels on a marching-cubes surface).
     double edge_length = 0.0;
-    double gradation = 1.3;        ///< >= 1: max growth of h per mm is (g - 1)
-    double min_edge_length = 0.0;  ///< mm, >= 0; 0 = h / 4
-    double max_edge_length = 0.0;  ///< mm, >= 0; 0 = 4 h
+    double gradation = 1.3;            ///< >= 1: max growth of h per mm is (g - 1)
+    double min_edge_length = 0.0;      ///< mm, >= 0; 0 = h / 4
+    double max_edge_length = 0.0;      ///< mm, >= 0; 0 = 4 h
     double curvature_angle_deg = 0.0;  ///< [0, 90): max turning angle per edge; 0 = off
-    int thickness_layers = 0;  ///< >= 0: thin regions get N edges across; 0 = off
+    int thickness_layers = 0;          ///< >= 0: thin regions get N edges across; 0 = off
     /// [0, 180): edges whose faces turn by more are sharp features; 0 = off (marching-cubes
     /// staircases would otherwise become features).
     double feature_angle_deg = 0.0;
     std::map<core::Label, double> label_edge_length;  ///< mm per region label, > 0
-    int smoothing_iterations = 5;  ///< >= 0: angle-based smoothing + flip passes
-    double flip_max_dihedral_deg = 10.0;  ///< [0, 90]: flip only edges this flat
-    bool check_self_intersections = true;  ///< exact check of the result (GeometryError)
+    int smoothing_iterations = 5;                     ///< >= 0: angle-based smoothing + flip passes
+    double flip_max_dihedral_deg = 10.0;              ///< [0, 90]: flip only edges this flat
+    bool check_self_intersections = true;             ///< exact check of the result (GeometryError)
     /// >= 0, percent: a region whose enclosed volume changes by more than this is meshed
     /// again with sizes scaled by about sqrt(limit / change) on its patches (chords of an
     /// inscribed mesh lose volume as h^2), for up to the stage's rounds; 0 = off.
@@ -87,8 +87,8 @@ struct SurfaceQuality {
     double min_angle_deg = 180.0;
     double mean_eta = 0.0;
     double max_eta = 0.0;
-    double fraction_below_20_deg = 0.0;     ///< faces with min angle < 20 degrees
-    double fraction_at_least_30_deg = 0.0;  ///< faces with min angle >= 30 degrees
+    double fraction_below_20_deg = 0.0;           ///< faces with min angle < 20 degrees
+    double fraction_at_least_30_deg = 0.0;        ///< faces with min angle >= 30 degrees
     std::array<std::size_t, 10> eta_histogram{};  ///< bins of width 0.1 over [0, 1]
 };
 SurfaceQuality surface_quality(const core::SurfaceNetwork& surface);

@@ -21,10 +21,10 @@ namespace frontmesh::surface {
 /// Parameters of the repair stage: member `m` is recipe key `repair.m`; default, range and
 /// unit are declared in repair_keys().
 struct RepairParams {
-    double merge_tolerance_mm = 1e-6;     ///< points closer than this are merged
+    double merge_tolerance_mm = 1e-6;       ///< points closer than this are merged
     double min_component_volume_mm3 = 1.0;  ///< closed pieces enclosing less are removed
-    std::size_t min_component_faces = 0;  ///< pieces with fewer faces are removed too
-    std::size_t max_hole_edges = 200;     ///< larger holes are an error, not filled
+    std::size_t min_component_faces = 0;    ///< pieces with fewer faces are removed too
+    std::size_t max_hole_edges = 200;       ///< larger holes are an error, not filled
     bool fill_holes = true;
     bool check_self_intersections = true;
     bool fail_on_self_intersections = true;  ///< false: warn and go on

@@ -41,7 +41,6 @@ using core::Label;
 using core::SurfaceNetwork;
 using Tri = std::array<std::int32_t, 3>;
 
-
 // Codes of Topology::nbr besides a neighbour side id (>= 0).
 constexpr std::int32_t k_open = -1;         // the only face of its region on the edge
 constexpr std::int32_t k_nonmanifold = -2;  // three or more faces of the region on the edge

@@ -72,8 +72,9 @@ double SizeField::at(const Eigen::Vector3d& p, std::int32_t face) const {
     // Barycentric coordinates of p's projection on the face plane, clamped to the face.
     const Eigen::Vector3d n = (b - a).cross(c - a);
     const double area2 = n.squaredNorm();
-    if (area2 <= 0.0) return (size_[std::size_t(t[0])] + size_[std::size_t(t[1])] +
-                              size_[std::size_t(t[2])]) / 3.0;
+    if (area2 <= 0.0)
+        return (size_[std::size_t(t[0])] + size_[std::size_t(t[1])] + size_[std::size_t(t[2])]) /
+               3.0;
     double wa = (c - b).cross(p - b).dot(n) / area2;
     double wb = (a - c).cross(p - c).dot(n) / area2;
     double wc = 1.0 - wa - wb;
@@ -82,7 +83,8 @@ double SizeField::at(const Eigen::Vector3d& p, std::int32_t face) const {
     wc = std::max(wc, 0.0);
     const double sum = wa + wb + wc;
     return (wa * size_[std::size_t(t[0])] + wb * size_[std::size_t(t[1])] +
-            wc * size_[std::size_t(t[2])]) / sum;
+            wc * size_[std::size_t(t[2])]) /
+           sum;
 }
 
 double mean_edge_length(const core::SurfaceNetwork& s) {
@@ -130,8 +132,8 @@ SheetDistances sheet_distances(const core::SurfaceNetwork& s,
             groups.clear();
             for (int k = 0; k < count; ++k) {
                 const std::size_t f = std::size_t(fs[k]);
-                const std::int64_t key = (std::int64_t(s.region_in[f]) << 32) |
-                                         std::uint32_t(s.region_out[f]);
+                const std::int64_t key =
+                    (std::int64_t(s.region_in[f]) << 32) | std::uint32_t(s.region_out[f]);
                 auto it = std::find_if(groups.begin(), groups.end(),
                                        [&](const auto& g) { return g.first == key; });
                 if (it == groups.end())
@@ -164,8 +166,8 @@ SheetDistances sheet_distances(const core::SurfaceNetwork& s,
                         const Eigen::Vector3d& gn = normals[std::size_t(g)];
                         const double gl = gn.norm();
                         if (gl <= 0.0 || std::abs(gn.dot(d)) < 0.5 * gl) continue;  // not facing
-                        const double hit = ray_triangle(o, d, s.point(t[0]), s.point(t[1]),
-                                                        s.point(t[2]));
+                        const double hit =
+                            ray_triangle(o, d, s.point(t[0]), s.point(t[1]), s.point(t[2]));
                         if (hit < best) best = hit;
                     }
                     if (best > limit) continue;
@@ -231,8 +233,8 @@ SizeField build_size_field(const core::SurfaceNetwork& s, const SizeFieldParams&
     if (!(h > 0.0) || !std::isfinite(h))
         FM_THROW(InputError, "remesh.edge_length: must be > 0 mm, got " + std::to_string(h));
     if (!(params.gradation >= 1.0))
-        FM_THROW(InputError, "remesh.gradation: must be >= 1, got " +
-                                 std::to_string(params.gradation));
+        FM_THROW(InputError,
+                 "remesh.gradation: must be >= 1, got " + std::to_string(params.gradation));
     const double h_min = params.min_edge_length > 0.0 ? params.min_edge_length : h / 4.0;
     const double h_max = params.max_edge_length > 0.0 ? params.max_edge_length : 4.0 * h;
     if (h_min > h_max)
@@ -270,8 +272,8 @@ SizeField build_size_field(const core::SurfaceNetwork& s, const SizeFieldParams&
             const auto& t = s.faces[f];
             const Eigen::Vector3d nf =
                 (s.point(t[1]) - s.point(t[0])).cross(s.point(t[2]) - s.point(t[0]));
-            const std::int64_t key = (std::int64_t(s.region_in[f]) << 32) |
-                                     std::uint32_t(s.region_out[f]);
+            const std::int64_t key =
+                (std::int64_t(s.region_in[f]) << 32) | std::uint32_t(s.region_out[f]);
             for (const auto v : t) {
                 vertex_normal[std::size_t(v)] += nf;
                 if (pair_of[std::size_t(v)] >= 0 && pair_of[std::size_t(v)] != key)

@@ -22,10 +22,10 @@
 namespace frontmesh::surface {
 
 struct SizeFieldParams {
-    double edge_length = 0.0;      ///< h, mm, > 0 (the stage resolves 0 before)
-    double gradation = 1.3;        ///< g >= 1: h(v) <= h(u) + (g - 1) |uv| along edges
-    double min_edge_length = 0.0;  ///< mm; 0 = h / 4
-    double max_edge_length = 0.0;  ///< mm; 0 = 4 h
+    double edge_length = 0.0;          ///< h, mm, > 0 (the stage resolves 0 before)
+    double gradation = 1.3;            ///< g >= 1: h(v) <= h(u) + (g - 1) |uv| along edges
+    double min_edge_length = 0.0;      ///< mm; 0 = h / 4
+    double max_edge_length = 0.0;      ///< mm; 0 = 4 h
     double curvature_angle_deg = 0.0;  ///< max turning angle per edge, degrees; 0 = off
     /// >= 1: a region thinner than t gets h <= t / N; 0 = off. Independently of it, two sheets
     /// closer than d always get h <= d (they must never be connected or crossed).

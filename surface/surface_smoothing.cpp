@@ -99,8 +99,8 @@ double smallest_edge_wedge(const core::SurfaceNetwork& s, std::int32_t a, std::i
 double global_min_angle(const core::SurfaceNetwork& s) {
     double smallest = 180.0;
     for (const auto& t : s.faces)
-        smallest = std::min(smallest,
-                            core::triangle_min_angle_deg(s.point(t[0]), s.point(t[1]), s.point(t[2])));
+        smallest = std::min(
+            smallest, core::triangle_min_angle_deg(s.point(t[0]), s.point(t[1]), s.point(t[2])));
     return smallest;
 }
 
@@ -772,7 +772,8 @@ private:
     void star_normals(std::int32_t v, std::vector<Eigen::Vector3d>& normals) const {
         normals.clear();
         for (auto k = offsets_[std::size_t(v)]; k < offsets_[std::size_t(v) + 1]; ++k) {
-            const Eigen::Vector3d nn = raw_normal(s_, s_.faces[std::size_t(incident_[std::size_t(k)])]);
+            const Eigen::Vector3d nn =
+                raw_normal(s_, s_.faces[std::size_t(incident_[std::size_t(k)])]);
             const double len = nn.norm();
             normals.push_back(len > 0.0 ? Eigen::Vector3d(nn / len) : Eigen::Vector3d::Zero());
         }
@@ -925,8 +926,7 @@ SmoothingReport smooth_surface(core::SurfaceNetwork& surface,
                                const std::vector<const BackgroundPatch*>& patches,
                                SurfaceConstraints& constraints, const SmoothingParams& params,
                                core::StageContext& ctx) {
-    if (params.iterations < 0)
-        FM_THROW(InputError, "remesh.smoothing_iterations: must be >= 0");
+    if (params.iterations < 0) FM_THROW(InputError, "remesh.smoothing_iterations: must be >= 0");
     for (const auto p : constraints.face_patch)
         FM_CHECK(p >= 0 && std::size_t(p) < patches.size() && patches[std::size_t(p)] != nullptr);
     SmoothingReport report;

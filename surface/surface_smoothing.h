@@ -25,15 +25,15 @@ struct SurfaceCurve {
 /// What each output vertex may do. Vertices on no curve are free: they move on the patch of
 /// their faces. Interior curve vertices slide along their curve; curve ends (corners) stay.
 struct SurfaceConstraints {
-    std::vector<std::int32_t> face_patch;  ///< per output face: index into the patch list
-    std::vector<std::int32_t> vertex_face; ///< per output vertex: background face hint, or -1
+    std::vector<std::int32_t> face_patch;   ///< per output face: index into the patch list
+    std::vector<std::int32_t> vertex_face;  ///< per output vertex: background face hint, or -1
     std::vector<SurfaceCurve> curves;
 };
 
 struct SmoothingParams {
-    int iterations = 5;                  ///< smoothing + flip passes
-    bool flip_edges = true;              ///< edge flips inside patches
-    double flip_max_dihedral_deg = 10.0; ///< only flip edges whose two faces are this flat
+    int iterations = 5;                   ///< smoothing + flip passes
+    bool flip_edges = true;               ///< edge flips inside patches
+    double flip_max_dihedral_deg = 10.0;  ///< only flip edges whose two faces are this flat
     /// A move is refused when a face's normal turns by more than this (degrees): no folds.
     double max_normal_turn_deg = 30.0;
     /// Region wedges (interior dihedral angle of a region between its two faces at a junction
@@ -50,10 +50,10 @@ struct SmoothingReport {
     std::size_t flips = 0;  ///< accepted edge flips, all passes
     double min_angle_before_deg = 0.0;
     double min_angle_after_deg = 0.0;
-    std::size_t wedge_changes = 0;      ///< moves + flips of the wedge passes
-    double min_wedge_before_deg = 0.0;  ///< smallest region wedge before the wedge passes
-    double min_wedge_after_deg = 0.0;   ///< and after (360 when there is no junction edge)
-    std::size_t tip_changes = 0;        ///< moves of the tip passes
+    std::size_t wedge_changes = 0;           ///< moves + flips of the wedge passes
+    double min_wedge_before_deg = 0.0;       ///< smallest region wedge before the wedge passes
+    double min_wedge_after_deg = 0.0;        ///< and after (360 when there is no junction edge)
+    std::size_t tip_changes = 0;             ///< moves of the tip passes
     double min_forced_tet_before_deg = 0.0;  ///< smallest ForcedTet angle before the tip passes
     double min_forced_tet_after_deg = 0.0;   ///< and after (180 when there is none)
 };

@@ -30,7 +30,8 @@ void accumulate(TetQuality& q, const core::TetFigures& f) {
     q.min_dihedral_deg = std::min(q.min_dihedral_deg, min_dihedral);
     q.max_dihedral_deg = std::max(q.max_dihedral_deg, f.max_dihedral_deg());
     q.skewness_histogram[std::min<std::size_t>(9, static_cast<std::size_t>(f.skewness * 10.0))]++;
-    q.dihedral_histogram[std::min<std::size_t>(17, static_cast<std::size_t>(min_dihedral / 10.0))]++;
+    q.dihedral_histogram[std::min<std::size_t>(17,
+                                               static_cast<std::size_t>(min_dihedral / 10.0))]++;
 }
 
 void finish(TetQuality& q) {
@@ -172,7 +173,9 @@ TetMeshCheck check_tet_mesh(const TetMesh& mesh, const std::vector<core::TetFigu
         }
         const std::size_t n_tets = j - first_tet;
         auto tet_of = [&](std::size_t k) { return refs[k].owner / 4; };
-        auto face_of = [&](std::size_t k) { return tet_face(mesh, refs[k].owner / 4, refs[k].owner % 4); };
+        auto face_of = [&](std::size_t k) {
+            return tet_face(mesh, refs[k].owner / 4, refs[k].owner % 4);
+        };
         if (n_tets > 2) {
             ++r.nonconforming_faces;
         } else if (n_tets == 2 && same_orientation(face_of(first_tet), face_of(first_tet + 1))) {
@@ -239,13 +242,12 @@ std::string TetMeshCheck::summary() const {
     std::ostringstream s;
     const double rel = enclosed_volume != 0.0 ? (volume - enclosed_volume) / enclosed_volume : 0.0;
     s << nodes << " nodes, " << tets << " tets, " << (valid() ? "valid" : "INVALID")
-      << " (inverted " << inverted_tets << ", non-conforming " << nonconforming_faces
-      << ", open " << open_faces << ", missing " << missing_faces << ", wrong side "
-      << wrong_side_faces << ", inner on surface " << inner_faces_on_surface << "), volume "
-      << volume << " mm^3 (relative error " << rel << "), skewness mean "
-      << fixed(quality.mean_skewness, 4) << " max " << fixed(quality.max_skewness, 4) << ", > 0.8: "
-      << quality.skewness_over_08 << " ("
-      << fixed(tets ? 100.0 * double(quality.skewness_over_08) / double(tets) : 0.0, 4)
+      << " (inverted " << inverted_tets << ", non-conforming " << nonconforming_faces << ", open "
+      << open_faces << ", missing " << missing_faces << ", wrong side " << wrong_side_faces
+      << ", inner on surface " << inner_faces_on_surface << "), volume " << volume
+      << " mm^3 (relative error " << rel << "), skewness mean " << fixed(quality.mean_skewness, 4)
+      << " max " << fixed(quality.max_skewness, 4) << ", > 0.8: " << quality.skewness_over_08
+      << " (" << fixed(tets ? 100.0 * double(quality.skewness_over_08) / double(tets) : 0.0, 4)
       << "%), min dihedral " << fixed(quality.min_dihedral_deg, 2) << " deg";
     return s.str();
 }

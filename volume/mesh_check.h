@@ -20,7 +20,7 @@ struct TetQuality {
     std::size_t tets = 0;
     double mean_skewness = 0.0;
     double max_skewness = 0.0;
-    std::size_t skewness_over_08 = 0;   ///< tets with skewness > 0.8
+    std::size_t skewness_over_08 = 0;  ///< tets with skewness > 0.8
     double min_dihedral_deg = 180.0;
     double max_dihedral_deg = 0.0;
     std::array<std::size_t, 10> skewness_histogram{};  ///< bins of 0.1 over [0, 1]
@@ -32,18 +32,18 @@ struct TetQuality {
 struct TetMeshCheck {
     std::size_t nodes = 0;
     std::size_t tets = 0;
-    std::size_t inverted_tets = 0;         ///< signed volume <= 0 (exact orientation)
-    std::size_t nonconforming_faces = 0;   ///< a face shared by more than two tets
-    std::size_t open_faces = 0;            ///< faces of one tet that are not boundary faces
-    std::size_t missing_faces = 0;         ///< boundary faces that no tet has
-    std::size_t wrong_side_faces = 0;      ///< boundary faces met by a tet of the wrong region
-                                           ///< or orientation
-    std::size_t inner_faces_on_surface = 0;///< faces between two tets of one region that are
-                                           ///< boundary faces
-    std::size_t unused_nodes = 0;          ///< nodes in no tet (not an error, reported)
-    double volume = 0.0;                   ///< sum of tet volumes, mm^3
-    double enclosed_volume = 0.0;          ///< volume enclosed by the boundary faces, mm^3
-    std::map<Label, double> region_volume;           ///< tets
+    std::size_t inverted_tets = 0;           ///< signed volume <= 0 (exact orientation)
+    std::size_t nonconforming_faces = 0;     ///< a face shared by more than two tets
+    std::size_t open_faces = 0;              ///< faces of one tet that are not boundary faces
+    std::size_t missing_faces = 0;           ///< boundary faces that no tet has
+    std::size_t wrong_side_faces = 0;        ///< boundary faces met by a tet of the wrong region
+                                             ///< or orientation
+    std::size_t inner_faces_on_surface = 0;  ///< faces between two tets of one region that are
+                                             ///< boundary faces
+    std::size_t unused_nodes = 0;            ///< nodes in no tet (not an error, reported)
+    double volume = 0.0;                     ///< sum of tet volumes, mm^3
+    double enclosed_volume = 0.0;            ///< volume enclosed by the boundary faces, mm^3
+    std::map<Label, double> region_volume;   ///< tets
     std::map<Label, double> region_enclosed_volume;  ///< boundary faces
     TetQuality quality;
     std::map<Label, TetQuality> region_quality;

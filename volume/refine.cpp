@@ -111,11 +111,12 @@ void record(core::StageContext& ctx, const std::string& prefix, const Figures& f
 
 std::string describe(const Figures& f) {
     char buffer[200];
-    std::snprintf(buffer, sizeof buffer,
-                  "%zu tets, skewness mean %.4f max %.4f, %zu over 0.8 (%.4f%%), min dihedral %.2f deg",
-                  f.tets, f.mean_skewness, f.max_skewness, f.skew_over_08,
-                  f.tets ? 100.0 * static_cast<double>(f.skew_over_08) / static_cast<double>(f.tets) : 0.0,
-                  f.min_dihedral);
+    std::snprintf(
+        buffer, sizeof buffer,
+        "%zu tets, skewness mean %.4f max %.4f, %zu over 0.8 (%.4f%%), min dihedral %.2f deg",
+        f.tets, f.mean_skewness, f.max_skewness, f.skew_over_08,
+        f.tets ? 100.0 * static_cast<double>(f.skew_over_08) / static_cast<double>(f.tets) : 0.0,
+        f.min_dihedral);
     return buffer;
 }
 
@@ -123,7 +124,8 @@ std::string describe(const Figures& f) {
 // nodes and three faces belong to the surface, so no refinement can change them (e.g. the tip
 // of a spike where a region has only three triangles at a vertex). Counted in summary.json and
 // named in a warning, since they bound the smallest dihedral angle of the whole mesh.
-void report_surface_fixed(const TetTopology& topo, const RefineOps& refiner, core::StageContext& ctx) {
+void report_surface_fixed(const TetTopology& topo, const RefineOps& refiner,
+                          core::StageContext& ctx) {
     constexpr double kFloorDeg = 10.0;
     refiner.prepare_cache();
     std::size_t fixed = 0;
@@ -146,18 +148,20 @@ void report_surface_fixed(const TetTopology& topo, const RefineOps& refiner, cor
     ctx.count("refine.surface_fixed_under_10deg", static_cast<double>(fixed));
     if (fixed == 0) return;
     char buffer[320];
-    std::snprintf(buffer, sizeof buffer,
-                  "refine: %zu tet(s) under 10 deg have three faces on the input surface, so the "
-                  "surface fixes their shape (smallest %.2f deg near (%.1f, %.1f, %.1f) mm, e.g. a "
-                  "spike tip with three triangles of one region); a finer or smoother surface there "
-                  "removes them",
-                  fixed, worst, worst_at.x(), worst_at.y(), worst_at.z());
+    std::snprintf(
+        buffer, sizeof buffer,
+        "refine: %zu tet(s) under 10 deg have three faces on the input surface, so the "
+        "surface fixes their shape (smallest %.2f deg near (%.1f, %.1f, %.1f) mm, e.g. a "
+        "spike tip with three triangles of one region); a finer or smoother surface there "
+        "removes them",
+        fixed, worst, worst_at.x(), worst_at.y(), worst_at.z());
     ctx.warn(buffer);
 }
 
 }  // namespace
 
-core::TetMesh refine(const core::TetMesh& mesh, const RefineParams& params, core::StageContext& ctx) {
+core::TetMesh refine(const core::TetMesh& mesh, const RefineParams& params,
+                     core::StageContext& ctx) {
     validate(params);
     TetTopology topo(by_smallest_node(mesh));
     RefineOps refiner(topo, params);
@@ -170,7 +174,8 @@ core::TetMesh refine(const core::TetMesh& mesh, const RefineParams& params, core
     if (params.node_removal) {
         refiner.remove_nodes();
         ctx.count("refine.nodes_removed", static_cast<double>(refiner.counts.nodes_removed));
-        ctx.info("refine: node removal took out " + std::to_string(refiner.counts.nodes_removed) + " nodes");
+        ctx.info("refine: node removal took out " + std::to_string(refiner.counts.nodes_removed) +
+                 " nodes");
     }
     ctx.progress(1.0 / steps, "node removal");
     for (int pass = 1; pass <= params.passes; ++pass) {

@@ -72,6 +72,7 @@ void validate(const RefineParams& params);
 /// refine.final.<figure> after the sliver pass).
 /// Deterministic (sequential edits in id order; the tets are first put in order of their
 /// smallest node, so the input's tet order does not matter).
-core::TetMesh refine(const core::TetMesh& mesh, const RefineParams& params, core::StageContext& ctx);
+core::TetMesh refine(const core::TetMesh& mesh, const RefineParams& params,
+                     core::StageContext& ctx);
 
 }  // namespace frontmesh::volume

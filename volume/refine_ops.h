@@ -32,7 +32,8 @@ struct TetShape {
     double skewness = 1.0;
     double min_dihedral_deg = 0.0;
 };
-TetShape tet_shape(const double* a, const double* b, const double* c, const double* d, bool dihedral);
+TetShape tet_shape(const double* a, const double* b, const double* c, const double* d,
+                   bool dihedral);
 
 /// Cost of tet t (nodes of `topo`) under `objective`: 0 ideal, 1 degenerate.
 double tet_cost(const TetTopology& topo, const Tet& t, Objective objective);
@@ -146,7 +147,8 @@ private:
     bool smooth_star(std::int32_t v);
     /// Replaces tets through the topology and marks the new tets, their neighbours and nodes
     /// as changed.
-    void apply(std::span<const std::int32_t> old_tets, std::span<const Tet> new_tets, core::Label region);
+    void apply(std::span<const std::int32_t> old_tets, std::span<const Tet> new_tets,
+               core::Label region);
     /// Forgets that `tets` (and their neighbours and nodes) were tried without success.
     void changed_tets(std::span<const std::int32_t> tets);
     /// changed_tets(star_) after node v (star star_, link link_) moved.
@@ -159,7 +161,7 @@ private:
     std::vector<Tet> candidate_, best_;
     std::vector<std::int32_t> new_ids_;
     std::vector<Eigen::Vector3d> axes_;
-    std::vector<std::uint8_t> settled_;       ///< per tet: flips tried, nothing found
+    std::vector<std::uint8_t> settled_;  ///< per tet: flips tried, nothing found
     /// Per tet: cached shape (shape()); `known` says which parts are valid. 24 MB per million
     /// tets.
     struct CachedShape {

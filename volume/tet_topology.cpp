@@ -103,50 +103,55 @@ TetTopology::TetTopology(core::TetMesh mesh) : mesh_(std::move(mesh)) {
     // Faces matched at their smallest node: each face (t, i) is written by exactly one node, so
     // nodes run in parallel and the result does not depend on the thread count.
     std::atomic<std::int64_t> bad_face{-1};
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n_nodes, 2048),
-                      [&](const tbb::blocked_range<std::size_t>& range) {
-        struct FaceRef {
-            Key key;
-            std::int32_t tet;
-            int local;
-        };
-        std::vector<FaceRef> refs;
-        for (std::size_t v = range.begin(); v != range.end(); ++v) {
-            refs.clear();
-            for (std::int32_t k = offset[v]; k < offset[v + 1]; ++k) {
-                const std::int32_t t = incident[static_cast<std::size_t>(k)];
-                const Tet& tt = mesh_.tets[static_cast<std::size_t>(t)];
-                for (int i = 0; i < 4; ++i) {
-                    if (tt[static_cast<std::size_t>(i)] == static_cast<std::int32_t>(v)) continue;
-                    const Key key = face_key(tt, i);
-                    if (key[0] == static_cast<std::int32_t>(v)) refs.push_back({key, t, i});
-                }
-            }
-            // Every key starts with v: order by (key[1], key[2]) packed in 64 bits, then tet.
-            auto rest = [](const Key& k) {
-                return static_cast<std::uint64_t>(static_cast<std::uint32_t>(k[1])) << 32 |
-                       static_cast<std::uint32_t>(k[2]);
+    tbb::parallel_for(
+        tbb::blocked_range<std::size_t>(0, n_nodes, 2048),
+        [&](const tbb::blocked_range<std::size_t>& range) {
+            struct FaceRef {
+                Key key;
+                std::int32_t tet;
+                int local;
             };
-            std::sort(refs.begin(), refs.end(), [&](const FaceRef& x, const FaceRef& y) {
-                const std::uint64_t rx = rest(x.key), ry = rest(y.key);
-                return rx != ry ? rx < ry : x.tet < y.tet;
-            });
-            for (std::size_t k = 0; k < refs.size();) {
-                std::size_t e = k + 1;
-                while (e < refs.size() && same_key(refs[e].key, refs[k].key)) ++e;
-                if (e - k > 2) bad_face.store(refs[k].tet);
-                if (e - k == 2) {
-                    const FaceRef& x = refs[k];
-                    const FaceRef& y = refs[k + 1];
-                    if (mesh_.region[static_cast<std::size_t>(x.tet)] == mesh_.region[static_cast<std::size_t>(y.tet)]) {
-                        nbr_[static_cast<std::size_t>(x.tet)][static_cast<std::size_t>(x.local)] = y.tet;
-                        nbr_[static_cast<std::size_t>(y.tet)][static_cast<std::size_t>(y.local)] = x.tet;
+            std::vector<FaceRef> refs;
+            for (std::size_t v = range.begin(); v != range.end(); ++v) {
+                refs.clear();
+                for (std::int32_t k = offset[v]; k < offset[v + 1]; ++k) {
+                    const std::int32_t t = incident[static_cast<std::size_t>(k)];
+                    const Tet& tt = mesh_.tets[static_cast<std::size_t>(t)];
+                    for (int i = 0; i < 4; ++i) {
+                        if (tt[static_cast<std::size_t>(i)] == static_cast<std::int32_t>(v))
+                            continue;
+                        const Key key = face_key(tt, i);
+                        if (key[0] == static_cast<std::int32_t>(v)) refs.push_back({key, t, i});
                     }
                 }
-                k = e;
+                // Every key starts with v: order by (key[1], key[2]) packed in 64 bits, then tet.
+                auto rest = [](const Key& k) {
+                    return static_cast<std::uint64_t>(static_cast<std::uint32_t>(k[1])) << 32 |
+                           static_cast<std::uint32_t>(k[2]);
+                };
+                std::sort(refs.begin(), refs.end(), [&](const FaceRef& x, const FaceRef& y) {
+                    const std::uint64_t rx = rest(x.key), ry = rest(y.key);
+                    return rx != ry ? rx < ry : x.tet < y.tet;
+                });
+                for (std::size_t k = 0; k < refs.size();) {
+                    std::size_t e = k + 1;
+                    while (e < refs.size() && same_key(refs[e].key, refs[k].key)) ++e;
+                    if (e - k > 2) bad_face.store(refs[k].tet);
+                    if (e - k == 2) {
+                        const FaceRef& x = refs[k];
+                        const FaceRef& y = refs[k + 1];
+                        if (mesh_.region[static_cast<std::size_t>(x.tet)] ==
+                            mesh_.region[static_cast<std::size_t>(y.tet)]) {
+                            nbr_[static_cast<std::size_t>(x.tet)]
+                                [static_cast<std::size_t>(x.local)] = y.tet;
+                            nbr_[static_cast<std::size_t>(y.tet)]
+                                [static_cast<std::size_t>(y.local)] = x.tet;
+                        }
+                    }
+                    k = e;
+                }
             }
-        }
-    });
+        });
     if (bad_face.load() >= 0) {
         const Tet& tt = mesh_.tets[static_cast<std::size_t>(bad_face.load())];
         const Eigen::Vector3d p = mesh_.point(tt[0]);
@@ -160,7 +165,8 @@ TetTopology::TetTopology(core::TetMesh mesh) : mesh_(std::move(mesh)) {
         for_face_tets(f[0], f[1], f[2], [&](std::int32_t t) {
             const Tet& tt = mesh_.tets[static_cast<std::size_t>(t)];
             for (int i = 0; i < 4; ++i)
-                if (tt[static_cast<std::size_t>(i)] != f[0] && tt[static_cast<std::size_t>(i)] != f[1] &&
+                if (tt[static_cast<std::size_t>(i)] != f[0] &&
+                    tt[static_cast<std::size_t>(i)] != f[1] &&
                     tt[static_cast<std::size_t>(i)] != f[2])
                     nbr_[static_cast<std::size_t>(t)][static_cast<std::size_t>(i)] = -1;
         });
@@ -255,7 +261,8 @@ bool TetTopology::star(std::int32_t v, std::vector<std::int32_t>& tets, std::siz
 }
 
 bool TetTopology::edge_ring(std::int32_t a, std::int32_t b, std::int32_t t,
-                            std::vector<std::int32_t>& tets, std::vector<std::int32_t>& ring) const {
+                            std::vector<std::int32_t>& tets,
+                            std::vector<std::int32_t>& ring) const {
     tets.clear();
     ring.clear();
     const Tet& tt = tet(t);
@@ -362,7 +369,8 @@ void TetTopology::replace(std::span<const std::int32_t> old_tets, std::span<cons
                 done = true;
                 nbr_[static_cast<std::size_t>(ids[j])][static_cast<std::size_t>(i)] = o.tet;
                 if (o.tet >= 0)
-                    nbr_[static_cast<std::size_t>(o.tet)][static_cast<std::size_t>(o.local)] = ids[j];
+                    nbr_[static_cast<std::size_t>(o.tet)][static_cast<std::size_t>(o.local)] =
+                        ids[j];
                 break;
             }
             if (done) continue;

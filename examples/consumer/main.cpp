@@ -27,13 +27,15 @@ int main(int argc, char** argv) {
         for (int k = 0; k < 20; ++k)
             for (int j = 0; j < 20; ++j)
                 for (int i = 0; i < 20; ++i)
-                    if (std::hypot(i - 9.5, j - 9.5, k - 9.5) < 6.0) image.labels[image.index(i, j, k)] = 1;
+                    if (std::hypot(i - 9.5, j - 9.5, k - 9.5) < 6.0)
+                        image.labels[image.index(i, j, k)] = 1;
         fm::surface::ExtractParams params;
         fm::surface::validate(params);
         fm::core::StageContext ctx;
         const fm::core::SurfaceNetwork surface = fm::surface::extract(image, params, ctx);
         std::cout << "extract: " << surface.faces.size() << " triangles, enclosed volume "
-                  << fm::core::enclosed_volume(surface, 1) << " mm^3 (ball: " << 4.0 / 3.0 * M_PI * 216.0 << ")\n";
+                  << fm::core::enclosed_volume(surface, 1)
+                  << " mm^3 (ball: " << 4.0 / 3.0 * M_PI * 216.0 << ")\n";
 
         if (argc >= 3) {
             // A whole recipe, its output folder overridden as on the command line (--set).

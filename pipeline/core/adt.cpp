@@ -1,9 +1,9 @@
 #include "pipeline/core/adt.h"
 
+#include <emmintrin.h>
 #include <algorithm>
 #include <cmath>
 #include <cstring>
-#include <emmintrin.h>
 #include <string>
 #include <utility>
 
@@ -37,8 +37,10 @@ inline void set_bound(double* bound, const double* key) {
 // bound := min(bound, other) elementwise (the union of the two boxes); stored only when it
 // grows, which leaves fewer dirty cache lines on the insertion path. True when it grew.
 inline bool widen_bound(double* bound, const double* other) {
-    const __m128d b01 = _mm_loadu_pd(bound), b23 = _mm_loadu_pd(bound + 2), b45 = _mm_loadu_pd(bound + 4);
-    const __m128d o01 = _mm_loadu_pd(other), o23 = _mm_loadu_pd(other + 2), o45 = _mm_loadu_pd(other + 4);
+    const __m128d b01 = _mm_loadu_pd(bound), b23 = _mm_loadu_pd(bound + 2),
+                  b45 = _mm_loadu_pd(bound + 4);
+    const __m128d o01 = _mm_loadu_pd(other), o23 = _mm_loadu_pd(other + 2),
+                  o45 = _mm_loadu_pd(other + 4);
     const __m128d grows = _mm_or_pd(_mm_or_pd(_mm_cmplt_pd(o01, b01), _mm_cmplt_pd(o23, b23)),
                                     _mm_cmplt_pd(o45, b45));
     if (_mm_movemask_pd(grows) == 0) return false;
@@ -59,9 +61,12 @@ struct BoxTest {
     __m128d qhi01, qhi2, qlo0, qlo12;  // keys
     __m128d b01, b23, b45;             // bounds
     explicit BoxTest(const AdtBox& query)
-        : qhi01(_mm_loadu_pd(query.hi.data())), qhi2(_mm_set_sd(query.hi[2])),
-          qlo0(_mm_set1_pd(query.lo[0])), qlo12(_mm_loadu_pd(query.lo.data() + 1)),
-          b01(_mm_setr_pd(query.hi[0], query.hi[1])), b23(_mm_setr_pd(query.hi[2], -query.lo[0])),
+        : qhi01(_mm_loadu_pd(query.hi.data())),
+          qhi2(_mm_set_sd(query.hi[2])),
+          qlo0(_mm_set1_pd(query.lo[0])),
+          qlo12(_mm_loadu_pd(query.lo.data() + 1)),
+          b01(_mm_setr_pd(query.hi[0], query.hi[1])),
+          b23(_mm_setr_pd(query.hi[2], -query.lo[0])),
           b45(_mm_setr_pd(-query.lo[1], -query.lo[2])) {}
     bool key_meets(const double* key) const {
         const __m128d k23 = _mm_loadu_pd(key + 2);
@@ -123,8 +128,7 @@ bool has_nan(const Eigen::Vector3d& v) { return v.array().isNaN().any(); }
 
 }  // namespace
 
-Adt::Adt(const AdtBox& domain, AdtItems items)
-    : domain_(domain), items_(items) {
+Adt::Adt(const AdtBox& domain, AdtItems items) : domain_(domain), items_(items) {
     static_assert(sizeof(Node) == 64, "the node size is documented in adt.h");
     if (!domain.is_valid())
         FM_THROW(InputError, "ADT: root domain must be finite with lo <= hi on every axis");
@@ -227,7 +231,8 @@ void Adt::fill(std::int32_t node, const double* region_lo, const double* region_
     };
     bool same = true;
     for (std::size_t i = first + 1; i < last && same; ++i)
-        for (int a = 0; a < 3 && same; ++a) same = clamped(scratch_[i], a) == clamped(scratch_[first], a);
+        for (int a = 0; a < 3 && same; ++a)
+            same = clamped(scratch_[i], a) == clamped(scratch_[first], a);
     if (last - first <= static_cast<std::size_t>(kLeafItems) || same || depth >= kMaxDepth) {
         make_leaf(node, first, last);
         return;
@@ -236,9 +241,11 @@ void Adt::fill(std::int32_t node, const double* region_lo, const double* region_
     const double split = 0.5 * region_lo[axis] + 0.5 * region_hi[axis];
     const auto begin = scratch_.begin() + static_cast<std::ptrdiff_t>(first);
     const auto end = scratch_.begin() + static_cast<std::ptrdiff_t>(last);
-    const std::size_t mid = first + static_cast<std::size_t>(
-        std::stable_partition(begin, end, [&](const Item& item) { return clamped(item, axis) < split; }) -
-        begin);
+    const std::size_t mid =
+        first + static_cast<std::size_t>(
+                    std::stable_partition(
+                        begin, end, [&](const Item& item) { return clamped(item, axis) < split; }) -
+                    begin);
     nodes_[static_cast<std::size_t>(node)].bucket = -1;
     set_empty(nodes_[static_cast<std::size_t>(node)].bound);  // the union of its halves'
     for (int side = 0; side < 2; ++side) {
@@ -251,7 +258,8 @@ void Adt::fill(std::int32_t node, const double* region_lo, const double* region_
         const std::int32_t child = new_node(depth + 1);
         nodes_[static_cast<std::size_t>(node)].child[side] = child;
         fill(child, child_lo, child_hi, lo, hi);
-        widen_bound(nodes_[static_cast<std::size_t>(node)].bound, nodes_[static_cast<std::size_t>(child)].bound);
+        widen_bound(nodes_[static_cast<std::size_t>(node)].bound,
+                    nodes_[static_cast<std::size_t>(child)].bound);
     }
 }
 
@@ -332,7 +340,9 @@ void Adt::insert(std::int32_t id, const AdtBox& box) {
         start_axis = depth % 3;
     }
     auto widen_up = [&](std::int32_t from) {
-        for (std::int32_t d = from; d >= 0 && widen_bound(nodes_[static_cast<std::size_t>(path[d])].bound, item_bound); --d) {
+        for (std::int32_t d = from;
+             d >= 0 && widen_bound(nodes_[static_cast<std::size_t>(path[d])].bound, item_bound);
+             --d) {
         }
     };
     // One level on one axis: true when the descent ends there, at a leaf (`at`) or at an empty
@@ -374,7 +384,8 @@ void Adt::insert(std::int32_t id, const AdtBox& box) {
     }
     const std::int32_t head = nodes_[static_cast<std::size_t>(at)].bucket;
     std::int32_t last = head;
-    while (buckets_[static_cast<std::size_t>(last)].next >= 0) last = buckets_[static_cast<std::size_t>(last)].next;
+    while (buckets_[static_cast<std::size_t>(last)].next >= 0)
+        last = buckets_[static_cast<std::size_t>(last)].next;
     if (buckets_[static_cast<std::size_t>(last)].count < kLeafItems) {
         append(last, item);
         widen_up(depth);
@@ -383,7 +394,8 @@ void Adt::insert(std::int32_t id, const AdtBox& box) {
     // A full leaf. A chain (items of one key) whose key the item shares, or a leaf at the
     // depth limit, grows by a bucket; any other is filled anew, which splits it.
     const Bucket& first = buckets_[static_cast<std::size_t>(head)];
-    const bool same_key = first.next >= 0 && std::clamp(first.key[0][0], domain_.lo[0], domain_.hi[0]) == kx &&
+    const bool same_key = first.next >= 0 &&
+                          std::clamp(first.key[0][0], domain_.lo[0], domain_.hi[0]) == kx &&
                           std::clamp(first.key[0][1], domain_.lo[1], domain_.hi[1]) == ky &&
                           std::clamp(first.key[0][2], domain_.lo[2], domain_.hi[2]) == kz;
     if (same_key || nodes_[static_cast<std::size_t>(at)].depth >= kMaxDepth) {
@@ -411,7 +423,8 @@ bool Adt::remove(std::int32_t id) {
     const std::int32_t b = slot / kLeafItems, s = slot % kLeafItems;
     // The last item of the leaf takes the slot.
     std::int32_t last = b;
-    while (buckets_[static_cast<std::size_t>(last)].next >= 0) last = buckets_[static_cast<std::size_t>(last)].next;
+    while (buckets_[static_cast<std::size_t>(last)].next >= 0)
+        last = buckets_[static_cast<std::size_t>(last)].next;
     Bucket& tail = buckets_[static_cast<std::size_t>(last)];
     const std::int32_t t = --tail.count;
     if (last != b || t != s) {
@@ -437,7 +450,8 @@ bool Adt::remove(std::int32_t id) {
 AdtBox Adt::box(std::int32_t id) const {
     FM_CHECK(contains(id));
     const std::int32_t slot = slot_of_id_[static_cast<std::size_t>(id)];
-    const double* key = buckets_[static_cast<std::size_t>(slot / kLeafItems)].key[slot % kLeafItems];
+    const double* key =
+        buckets_[static_cast<std::size_t>(slot / kLeafItems)].key[slot % kLeafItems];
     return {Eigen::Vector3d(key[0], key[1], key[2]), Eigen::Vector3d(key[3], key[4], key[5])};
 }
 
@@ -646,7 +660,8 @@ void Adt::collect_nearest(const Eigen::Vector3d& p, std::size_t k,
         const Node& n = nodes_[static_cast<std::size_t>(node)];
         bool has_next = false;
         if (n.bucket >= 0) {
-            for (std::int32_t b = n.bucket; b >= 0; b = buckets_[static_cast<std::size_t>(b)].next) {
+            for (std::int32_t b = n.bucket; b >= 0;
+                 b = buckets_[static_cast<std::size_t>(b)].next) {
                 const Bucket& items = buckets_[static_cast<std::size_t>(b)];
                 for (std::int32_t s = 0; s < items.count; ++s) {
                     const AdtNeighbor candidate{items.id[s], key_distance2(items.key[s], p)};

@@ -254,10 +254,10 @@ private:
 
     AdtBox domain_;
     AdtItems items_;
-    HugeVector<Node> nodes_;                // tree nodes, root first after compact
-    HugeVector<Bucket> buckets_;            // leaf buckets (huge pages when large)
-    HugeVector<std::int32_t> slot_of_id_;   // id -> bucket * kLeafItems + slot, -1 absent
-    std::vector<Item> scratch_;             // items being redistributed by fill()
+    HugeVector<Node> nodes_;               // tree nodes, root first after compact
+    HugeVector<Bucket> buckets_;           // leaf buckets (huge pages when large)
+    HugeVector<std::int32_t> slot_of_id_;  // id -> bucket * kLeafItems + slot, -1 absent
+    std::vector<Item> scratch_;            // items being redistributed by fill()
     std::int32_t root_ = -1;
     std::int32_t free_bucket_ = -1;
     std::int32_t size_ = 0;

@@ -10,7 +10,8 @@ namespace frontmesh::core {
 /// Base of every frontmesh error. `what()` is the user-facing line.
 class Error : public std::runtime_error {
 public:
-    Error(const std::string& message, const char* file = "", int line = 0, const char* function = "")
+    Error(const std::string& message, const char* file = "", int line = 0,
+          const char* function = "")
         : std::runtime_error(message), file_(file), line_(line), function_(function) {}
 
     /// "file:line (function)" of the throw site, for the log.
@@ -60,8 +61,8 @@ public:
     throw ::frontmesh::core::Type((message), __FILE__, __LINE__, __func__)
 
 /// Always-on invariant check guarding against corrupt output.
-#define FM_CHECK(cond)                                                        \
-    do {                                                                      \
+#define FM_CHECK(cond)                                                         \
+    do {                                                                       \
         if (!(cond)) FM_THROW(InternalError, "internal check failed: " #cond); \
     } while (false)
 

@@ -25,8 +25,8 @@ std::string frame_name(Frame frame);
 /// Label 0 is the outside. The reader pads the image by one voxel of 0 on every side.
 struct LabelImage {
     std::array<int, 3> dims{0, 0, 0};
-    Eigen::Vector3d spacing{1.0, 1.0, 1.0};   ///< mm, all > 0
-    Eigen::Vector3d origin{0.0, 0.0, 0.0};    ///< mm, position of voxel (0, 0, 0)
+    Eigen::Vector3d spacing{1.0, 1.0, 1.0};                   ///< mm, all > 0
+    Eigen::Vector3d origin{0.0, 0.0, 0.0};                    ///< mm, position of voxel (0, 0, 0)
     Eigen::Matrix3d direction = Eigen::Matrix3d::Identity();  ///< columns: axis directions
     Frame frame = Frame::Lps;
     std::vector<Label> labels;  ///< size dims[0]*dims[1]*dims[2], x fastest

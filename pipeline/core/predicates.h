@@ -26,16 +26,15 @@ int orient2d(const double* a, const double* b, const double* c, int i, int j);
 
 /// Sign of the in-sphere test: +1 when e lies inside the sphere through a, b, c, d, where
 /// orient3d(a, b, c, d) > 0; -1 outside; 0 on the sphere.
-int insphere(const double* a, const double* b, const double* c, const double* d,
-             const double* e);
+int insphere(const double* a, const double* b, const double* c, const double* d, const double* e);
 
 /// True when a, b, c are collinear (including coincident points): the triangle has zero area.
 bool is_degenerate_triangle(const double* a, const double* b, const double* c);
 
 /// True when the closed segment [p, q] and the closed triangle (a, b, c) share a point. Handles
 /// coplanar input and degenerate segments and triangles (a point, or collinear vertices).
-bool segment_intersects_triangle(const double* p, const double* q, const double* a,
-                                 const double* b, const double* c);
+bool segment_intersects_triangle(const double* p, const double* q, const double* a, const double* b,
+                                 const double* c);
 
 /// True when the closed triangles (a0, a1, a2) and (b0, b1, b2) share a point. Degenerate
 /// triangles (collinear or coincident vertices) are treated as the segment or point they span.

@@ -10,8 +10,7 @@
 
 namespace frontmesh::core {
 
-double triangle_area(const Eigen::Vector3d& a, const Eigen::Vector3d& b,
-                     const Eigen::Vector3d& c) {
+double triangle_area(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c) {
     return 0.5 * (b - a).cross(c - a).norm();
 }
 
@@ -50,9 +49,9 @@ double tet_skewness(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Ei
     const double det = u.dot(v.cross(w));
     if (det == 0.0) return 1.0;
     // Circumcentre offset from a: (|u|^2 v x w + |v|^2 w x u + |w|^2 u x v) / (2 det).
-    const Eigen::Vector3d offset =
-        (u.squaredNorm() * v.cross(w) + v.squaredNorm() * w.cross(u) + w.squaredNorm() * u.cross(v)) /
-        (2.0 * det);
+    const Eigen::Vector3d offset = (u.squaredNorm() * v.cross(w) + v.squaredNorm() * w.cross(u) +
+                                    w.squaredNorm() * u.cross(v)) /
+                                   (2.0 * det);
     const double R = offset.norm();
     const double volume = std::abs(det) / 6.0;
     const double v_opt = 8.0 * std::sqrt(3.0) / 27.0 * R * R * R;  // Eq. 1
@@ -69,8 +68,8 @@ namespace {
 // and could report 180 degrees where the true answer is 0.
 bool dihedral_angles_deg(const Eigen::Vector3d& a, const Eigen::Vector3d& b,
                          const Eigen::Vector3d& c, const Eigen::Vector3d& d, double (&angles)[6]) {
-    const std::array<std::array<const Eigen::Vector3d*, 3>, 4> faces{{
-        {&b, &c, &d}, {&a, &d, &c}, {&a, &b, &d}, {&a, &c, &b}}};
+    const std::array<std::array<const Eigen::Vector3d*, 3>, 4> faces{
+        {{&b, &c, &d}, {&a, &d, &c}, {&a, &b, &d}, {&a, &c, &b}}};
     std::array<Eigen::Vector3d, 4> n;
     for (int i = 0; i < 4; ++i) {
         const auto& f = faces[static_cast<std::size_t>(i)];
@@ -106,8 +105,8 @@ double TetFigures::max_dihedral_deg() const {
     return *std::max_element(std::begin(dihedral_deg), std::end(dihedral_deg));
 }
 
-TetFigures tet_figures(const Eigen::Vector3d& a, const Eigen::Vector3d& b,
-                       const Eigen::Vector3d& c, const Eigen::Vector3d& d) {
+TetFigures tet_figures(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c,
+                       const Eigen::Vector3d& d) {
     TetFigures f;
     double angles[6];
     if (!dihedral_angles_deg(a, b, c, d, angles)) return f;

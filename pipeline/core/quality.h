@@ -16,8 +16,7 @@ double triangle_min_angle_deg(const Eigen::Vector3d& a, const Eigen::Vector3d& b
                               const Eigen::Vector3d& c);
 
 /// Area of a triangle, mm^2.
-double triangle_area(const Eigen::Vector3d& a, const Eigen::Vector3d& b,
-                     const Eigen::Vector3d& c);
+double triangle_area(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c);
 
 /// Signed volume of tetrahedron (a, b, c, d): positive when d lies on the side of the
 /// right-hand normal of (a, b, c).
@@ -47,7 +46,7 @@ struct TetFigures {
 
 /// TetFigures of tetrahedron (a, b, c, d), for either orientation: skewness as tet_skewness,
 /// min_dihedral_deg() as tet_min_dihedral_deg rounded to float.
-TetFigures tet_figures(const Eigen::Vector3d& a, const Eigen::Vector3d& b,
-                       const Eigen::Vector3d& c, const Eigen::Vector3d& d);
+TetFigures tet_figures(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c,
+                       const Eigen::Vector3d& d);
 
 }  // namespace frontmesh::core

@@ -17,7 +17,7 @@ namespace frontmesh::core {
 /// segment or point they span. Throws InputError for a vertex id out of range or a non-finite
 /// coordinate. Cost: O(n log n) typical (bounding volume hierarchy broad phase, TBB-parallel),
 /// about 2 s of one core per million faces; the limit bounds the output, not the work.
-std::vector<std::pair<std::int32_t, std::int32_t>> self_intersections(
-    const SurfaceNetwork& surface, std::size_t max_pairs = 0);
+std::vector<std::pair<std::int32_t, std::int32_t>> self_intersections(const SurfaceNetwork& surface,
+                                                                      std::size_t max_pairs = 0);
 
 }  // namespace frontmesh::core

@@ -24,11 +24,11 @@ enum class LogLevel { Debug, Info, Warning };
 /// array `kind` carries `kind`'s meaning, the field data `what`) and lists it in
 /// summary.json. The sink may be called from any thread.
 struct Diagnostic {
-    std::string name;  ///< short, file-name safe: letters, digits, '-', '_', '.'
-    std::string what;  ///< one line: why it was handed over, and what `kind` means
-    std::vector<double> xyz;                        ///< 3 per point, mm
-    std::vector<std::vector<std::int32_t>> cells;   ///< point ids, 2 to 4 per cell
-    std::vector<std::int32_t> kind;                 ///< per cell
+    std::string name;         ///< short, file-name safe: letters, digits, '-', '_', '.'
+    std::string what;         ///< one line: why it was handed over, and what `kind` means
+    std::vector<double> xyz;  ///< 3 per point, mm
+    std::vector<std::vector<std::int32_t>> cells;  ///< point ids, 2 to 4 per cell
+    std::vector<std::int32_t> kind;                ///< per cell
 
     std::int32_t add_point(double x, double y, double z) {
         xyz.push_back(x);
@@ -86,7 +86,9 @@ public:
     }
 
     /// True once the run was asked to stop. Cheap (one relaxed atomic load).
-    bool is_cancelled() const { return cancel_ != nullptr && cancel_->load(std::memory_order_relaxed); }
+    bool is_cancelled() const {
+        return cancel_ != nullptr && cancel_->load(std::memory_order_relaxed);
+    }
     /// Long loops call this between units of work; throws CancelledError when the run was
     /// asked to stop, so the stage ends without writing anything.
     void check_cancelled() const {

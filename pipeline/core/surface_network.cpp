@@ -85,8 +85,10 @@ std::vector<RegionBoundaryCheck> check_region_boundaries(const SurfaceNetwork& s
         }
         auto& check = checks[uses[i].region];
         const int total = forward + backward;
-        if (total % 2 != 0) ++check.open_edges;
-        else if (forward != backward) ++check.misoriented_edges;
+        if (total % 2 != 0)
+            ++check.open_edges;
+        else if (forward != backward)
+            ++check.misoriented_edges;
         if (total > 2) ++check.nonmanifold_edges;
         i = j;
     }

@@ -60,10 +60,10 @@ double enclosed_volume(const SurfaceNetwork& surface, Label region);
 struct RegionBoundaryCheck {
     Label region = 0;
     std::size_t faces = 0;
-    std::size_t open_edges = 0;          ///< edges with an odd number of this region's faces
-    std::size_t misoriented_edges = 0;   ///< edges whose faces disagree in orientation
-    std::size_t nonmanifold_edges = 0;   ///< edges with more than two of this region's faces
-    double volume = 0.0;                 ///< mm^3, positive when oriented outward
+    std::size_t open_edges = 0;         ///< edges with an odd number of this region's faces
+    std::size_t misoriented_edges = 0;  ///< edges whose faces disagree in orientation
+    std::size_t nonmanifold_edges = 0;  ///< edges with more than two of this region's faces
+    double volume = 0.0;                ///< mm^3, positive when oriented outward
     bool is_closed() const { return open_edges == 0; }
     bool is_oriented() const { return misoriented_edges == 0 && volume > 0.0; }
 };

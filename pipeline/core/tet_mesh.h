@@ -23,17 +23,17 @@ namespace frontmesh::core {
 /// once) with the SurfaceNetwork conventions: normal out of region_in, region_out 0 = outside.
 /// Memory: 24 B per node + 20 B per tet (+ 4 B per node for `level`).
 struct TetMesh {
-    std::vector<double> xyz;                         ///< 3 per node, mm
-    std::vector<std::array<std::int32_t, 4>> tets;   ///< node ids, VTK order (positive volume)
-    std::vector<Label> region;                       ///< per tet, > 0
+    std::vector<double> xyz;                        ///< 3 per node, mm
+    std::vector<std::array<std::int32_t, 4>> tets;  ///< node ids, VTK order (positive volume)
+    std::vector<Label> region;                      ///< per tet, > 0
 
     std::vector<std::array<std::int32_t, 3>> faces;  ///< boundary + interface triangles
     std::vector<Label> region_in;                    ///< per face
     std::vector<Label> region_out;                   ///< per face, 0 = outside
     std::int32_t surface_vertices = 0;               ///< nodes [0, surface_vertices) are on `faces`
 
-    std::vector<std::int32_t> level;                 ///< per node front level (0 = input surface);
-                                                     ///< empty when unknown
+    std::vector<std::int32_t> level;  ///< per node front level (0 = input surface);
+                                      ///< empty when unknown
 
     std::size_t node_count() const { return xyz.size() / 3; }
     std::size_t tet_count() const { return tets.size(); }

@@ -314,7 +314,8 @@ TEST_CASE("ADT stays exact and bounded under insert/remove churn", "[core]") {
         CHECK(adt.pool_size() <= max_live);
         // Compaction merges sparse leaves and changes no result; churn goes on after it.
         adt.compact();
-        INFO("nodes " << adt.pool_size() << ", buckets " << adt.bucket_count() << ", items " << adt.size());
+        INFO("nodes " << adt.pool_size() << ", buckets " << adt.bucket_count() << ", items "
+                      << adt.size());
         CHECK(adt.pool_size() <= adt.size() / 4);
         CHECK(adt.bucket_count() <= adt.size() / 4);
         check_queries(adt, ref, rng, 50, -0.1, 1.1, 0.1);
@@ -498,7 +499,8 @@ TEST_CASE("ADT compact keeps every query result and exact bounds", "[core]") {
         const auto before = run();
         const std::int32_t depth = adt.max_depth();
         adt.compact();
-        INFO("nodes " << adt.pool_size() << ", buckets " << adt.bucket_count() << ", items " << adt.size());
+        INFO("nodes " << adt.pool_size() << ", buckets " << adt.bucket_count() << ", items "
+                      << adt.size());
         CHECK(adt.pool_size() <= adt.size() / 4);
         CHECK(adt.bucket_count() <= adt.size() / 4);
         CHECK(adt.max_depth() <= depth);  // sparse subtrees became leaves

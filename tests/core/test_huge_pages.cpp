@@ -14,7 +14,9 @@ struct alignas(64) Line {
     double v[8];
 };
 
-bool aligned_to(const void* p, std::size_t a) { return reinterpret_cast<std::uintptr_t>(p) % a == 0; }
+bool aligned_to(const void* p, std::size_t a) {
+    return reinterpret_cast<std::uintptr_t>(p) % a == 0;
+}
 
 }  // namespace
 
@@ -25,7 +27,8 @@ TEST_CASE("HugeVector keeps its contents across growth from small to huge blocks
     REQUIRE(v.size() == 3'000'000u);
     CHECK(aligned_to(v.data(), HugePageAllocator<std::int32_t>::kPage));
     bool same = true;
-    for (std::int32_t i = 0; i < 3'000'000; ++i) same = same && v[static_cast<std::size_t>(i)] == i * 7;
+    for (std::int32_t i = 0; i < 3'000'000; ++i)
+        same = same && v[static_cast<std::size_t>(i)] == i * 7;
     CHECK(same);
     // Shrinking back below 2 MiB frees the mapping and copies into a small block.
     v.resize(1000);

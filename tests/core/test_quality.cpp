@@ -151,7 +151,8 @@ TEST_CASE("tet_figures: skewness and all six dihedral angles of a tetrahedron", 
         const TetFigures f = tet_figures(a, b, c, d);
         CHECK(f.skewness == tet_skewness(a, b, c, d));
         CHECK(f.min_dihedral_deg() == static_cast<float>(tet_min_dihedral_deg(a, b, c, d)));
-        CHECK(tet_figures(b, a, c, d).min_dihedral_deg() == Approx(f.min_dihedral_deg()).margin(1e-4));
+        CHECK(tet_figures(b, a, c, d).min_dihedral_deg() ==
+              Approx(f.min_dihedral_deg()).margin(1e-4));
         double sum = 0.0;
         for (const float angle : f.dihedral_deg) sum += angle;
         CHECK((sum > 360.0 - 1e-3 && sum < 540.0 + 1e-3));

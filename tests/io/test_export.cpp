@@ -17,11 +17,11 @@
 
 #include <catch2/catch.hpp>
 
-#include "tests/fixtures/phantoms.h"
 #include "io/export.h"
 #include "io/label_table.h"
 #include "pipeline/core/error.h"
 #include "pipeline/core/quality.h"
+#include "tests/fixtures/phantoms.h"
 #include "tests/fixtures/skip.h"
 
 using namespace frontmesh;
@@ -44,13 +44,15 @@ core::TetMesh three_region_cube() {
     std::int32_t next = 0;
     for (const auto& f : mesh.faces)
         for (std::int32_t v : f)
-            if (new_id[static_cast<std::size_t>(v)] < 0) new_id[static_cast<std::size_t>(v)] = next++;
+            if (new_id[static_cast<std::size_t>(v)] < 0)
+                new_id[static_cast<std::size_t>(v)] = next++;
     mesh.surface_vertices = next;
     for (auto& id : new_id)
         if (id < 0) id = next++;
     std::vector<double> xyz(mesh.xyz.size());
     for (std::size_t v = 0; v < mesh.node_count(); ++v)
-        for (int k = 0; k < 3; ++k) xyz[3 * static_cast<std::size_t>(new_id[v]) + k] = mesh.xyz[3 * v + k];
+        for (int k = 0; k < 3; ++k)
+            xyz[3 * static_cast<std::size_t>(new_id[v]) + k] = mesh.xyz[3 * v + k];
     mesh.xyz = xyz;
     for (auto& t : mesh.tets)
         for (auto& v : t) v = new_id[static_cast<std::size_t>(v)];
@@ -96,7 +98,8 @@ std::vector<std::string> signature(const core::TetMesh& mesh, const std::vector<
         auto q = mesh.tets[t];
         std::sort(q.begin(), q.end());
         lines.push_back("R " + std::to_string(mesh.region[t]) + " " + std::to_string(q[0]) + " " +
-                        std::to_string(q[1]) + " " + std::to_string(q[2]) + " " + std::to_string(q[3]));
+                        std::to_string(q[1]) + " " + std::to_string(q[2]) + " " +
+                        std::to_string(q[3]));
     }
     for (std::size_t f = 0; f < face_tags.size(); ++f) {
         auto q = mesh.faces[f];
@@ -111,11 +114,13 @@ std::vector<std::string> signature(const core::TetMesh& mesh, const std::vector<
 /// Group tag per face: 1, 2, ... in increasing (region_in, region_out) order.
 std::vector<int> pair_tags(const core::TetMesh& mesh) {
     std::map<std::pair<int, int>, int> tag;
-    for (std::size_t f = 0; f < mesh.face_count(); ++f) tag[{mesh.region_in[f], mesh.region_out[f]}] = 0;
+    for (std::size_t f = 0; f < mesh.face_count(); ++f)
+        tag[{mesh.region_in[f], mesh.region_out[f]}] = 0;
     int next = 0;
     for (auto& [pair, t] : tag) t = ++next;
     std::vector<int> tags;
-    for (std::size_t f = 0; f < mesh.face_count(); ++f) tags.push_back(tag[{mesh.region_in[f], mesh.region_out[f]}]);
+    for (std::size_t f = 0; f < mesh.face_count(); ++f)
+        tags.push_back(tag[{mesh.region_in[f], mesh.region_out[f]}]);
     return tags;
 }
 
@@ -176,8 +181,10 @@ TEST_CASE("format names and file names", "[io][export]") {
     CHECK_THROWS_AS(io::format_from_name("stl"), core::InputError);
     CHECK(io::format_from_path("/a/b/x.MESH") == io::MeshFormat::Medit);
     CHECK_THROWS_AS(io::format_from_path("x.obj"), core::InputError);
-    for (const auto& name : io::format_names()) CHECK(io::format_name(io::format_from_name(name)) == name);
-    CHECK(io::export_file_name(io::MeshFormat::Msh22) != io::export_file_name(io::MeshFormat::Msh41));
+    for (const auto& name : io::format_names())
+        CHECK(io::format_name(io::format_from_name(name)) == name);
+    CHECK(io::export_file_name(io::MeshFormat::Msh22) !=
+          io::export_file_name(io::MeshFormat::Msh41));
 }
 
 TEST_CASE("every format round-trips through read_mesh", "[io][export]") {
@@ -219,7 +226,8 @@ TEST_CASE("every format round-trips through read_mesh", "[io][export]") {
             CHECK(info.derived_faces == 0);
         }
         for (core::Label l : {1, 2, 7})
-            CHECK(back_names.name(l) == (format == io::MeshFormat::Vtu ? names.name(l) : names.safe_name(l)));
+            CHECK(back_names.name(l) ==
+                  (format == io::MeshFormat::Vtu ? names.name(l) : names.safe_name(l)));
     }
 }
 
@@ -256,7 +264,8 @@ TEST_CASE("read_mesh keeps a file's face orientation and adds missing faces", "[
 
 TEST_CASE("readers reject bad files naming file and line", "[io][export]") {
     const std::string dir = fixtures::temp_dir("export_bad");
-    std::ofstream(dir + "/a.msh") << "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$Nodes\n1 2 1 2\n3 1 0 2\n1\n2\n0 0 x\n";
+    std::ofstream(dir + "/a.msh")
+        << "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$Nodes\n1 2 1 2\n3 1 0 2\n1\n2\n0 0 x\n";
     try {
         io::read_mesh(dir + "/a.msh");
         FAIL("no error");
@@ -265,9 +274,11 @@ TEST_CASE("readers reject bad files naming file and line", "[io][export]") {
     }
     std::ofstream(dir + "/b.msh") << "$MeshFormat\n4.1 1 8\n$EndMeshFormat\n";
     CHECK_THROWS_WITH(io::read_mesh(dir + "/b.msh"), Catch::Contains("binary"));
-    std::ofstream(dir + "/c.mesh") << "MeshVersionFormatted 2\nDimension 3\nVertices\n1\n0 0 0 0\nEnd\n";
+    std::ofstream(dir + "/c.mesh")
+        << "MeshVersionFormatted 2\nDimension 3\nVertices\n1\n0 0 0 0\nEnd\n";
     CHECK_THROWS_WITH(io::read_mesh(dir + "/c.mesh"), Catch::Contains("no tetrahedra"));
-    std::ofstream(dir + "/d.inp") << "*NODE\n1, 0, 0, 0\n*ELEMENT, TYPE=C3D4, ELSET=A\n1, 1, 2, 3, 9\n";
+    std::ofstream(dir + "/d.inp")
+        << "*NODE\n1, 0, 0, 0\n*ELEMENT, TYPE=C3D4, ELSET=A\n1, 1, 2, 3, 9\n";
     CHECK_THROWS_AS(io::read_mesh(dir + "/d.inp"), core::InputError);
     CHECK_THROWS_AS(io::read_mesh(dir + "/missing.vtu"), core::InputError);
 }
@@ -280,7 +291,8 @@ TEST_CASE("gmsh reads the MSH 4.1, MSH 2.2 and MEDIT exports", "[io][export][gms
     const io::LabelTable names = names_for_cube();
     const std::string dir = fixtures::temp_dir("export_gmsh");
     const std::vector<std::string> want = signature(mesh, pair_tags(mesh));
-    for (const auto format : {io::MeshFormat::Msh41, io::MeshFormat::Msh22, io::MeshFormat::Medit}) {
+    for (const auto format :
+         {io::MeshFormat::Msh41, io::MeshFormat::Msh22, io::MeshFormat::Medit}) {
         const std::string path = dir + "/" + io::export_file_name(format);
         INFO(path);
         io::write_mesh(mesh, path, format, names);
@@ -307,7 +319,8 @@ TEST_CASE("gmsh reads the MSH 4.1, MSH 2.2 and MEDIT exports", "[io][export][gms
         // Map gmsh's nodes to ours by their (exact) coordinates before comparing.
         std::map<std::array<double, 3>, std::int32_t> ours;
         for (std::size_t v = 0; v < mesh.node_count(); ++v)
-            ours[{mesh.xyz[3 * v], mesh.xyz[3 * v + 1], mesh.xyz[3 * v + 2]}] = static_cast<std::int32_t>(v);
+            ours[{mesh.xyz[3 * v], mesh.xyz[3 * v + 1], mesh.xyz[3 * v + 2]}] =
+                static_cast<std::int32_t>(v);
         std::vector<std::int32_t> to_ours(back.node_count(), -1);
         for (std::size_t v = 0; v < back.node_count(); ++v) {
             const auto it = ours.find({back.xyz[3 * v], back.xyz[3 * v + 1], back.xyz[3 * v + 2]});
@@ -333,7 +346,8 @@ TEST_CASE("gmsh reads the MSH 4.1, MSH 2.2 and MEDIT exports", "[io][export][gms
                 std::array<int, 3> q{};
                 for (auto& v : q) s >> v, --v;
                 std::sort(q.begin(), q.end());
-                tag_of[q] = phys != 0 ? phys : elem;  // gmsh keeps MEDIT references as elementary tags
+                tag_of[q] =
+                    phys != 0 ? phys : elem;  // gmsh keeps MEDIT references as elementary tags
             }
             for (std::size_t f = 0; f < back.face_count(); ++f) {
                 auto q = back.faces[f];
@@ -348,10 +362,12 @@ TEST_CASE("gmsh reads the MSH 4.1, MSH 2.2 and MEDIT exports", "[io][export][gms
             for (auto& v : q) v = to_ours[static_cast<std::size_t>(v)];
         const auto got = signature(mapped, tags);
         std::vector<std::string> missing, extra;
-        std::set_difference(want.begin(), want.end(), got.begin(), got.end(), std::back_inserter(missing));
-        std::set_difference(got.begin(), got.end(), want.begin(), want.end(), std::back_inserter(extra));
-        INFO("missing " << missing.size() << (missing.empty() ? "" : ": " + missing[0]) << ", extra "
-                        << extra.size() << (extra.empty() ? "" : ": " + extra[0]));
+        std::set_difference(want.begin(), want.end(), got.begin(), got.end(),
+                            std::back_inserter(missing));
+        std::set_difference(got.begin(), got.end(), want.begin(), want.end(),
+                            std::back_inserter(extra));
+        INFO("missing " << missing.size() << (missing.empty() ? "" : ": " + missing[0])
+                        << ", extra " << extra.size() << (extra.empty() ? "" : ": " + extra[0]));
         CHECK(got == want);
     }
 }
@@ -384,16 +400,19 @@ TEST_CASE("meshio reads the msh, mesh, inp and vtu exports", "[io][export][meshi
     // string field arrays (<Array type="String">) in VTK's appended raw layout.
     const std::string vtu = dir + "/mesh.vtu";
     io::write_mesh(mesh, vtu, io::MeshFormat::Vtu, {});
-    const Run r = run("/usr/bin/python3 -c \"import meshio,sys; m=meshio.read(sys.argv[1]); "
-                      "print(len(m.points), sum(len(c.data) for c in m.cells if c.type=='tetra'), "
-                      "sorted(set(int(x) for x in m.cell_data['region'][0])))\" '" + vtu + "'");
+    const Run r =
+        run("/usr/bin/python3 -c \"import meshio,sys; m=meshio.read(sys.argv[1]); "
+            "print(len(m.points), sum(len(c.data) for c in m.cells if c.type=='tetra'), "
+            "sorted(set(int(x) for x in m.cell_data['region'][0])))\" '" +
+            vtu + "'");
     INFO(r.out);
     REQUIRE(r.exit_code == 0);
     CHECK_THAT(r.out, Catch::Contains(std::to_string(mesh.node_count()) + " " +
                                       std::to_string(mesh.tet_count()) + " [1, 2, 7]"));
 }
 
-TEST_CASE("FEBio export: parts, domains, placeholder materials and surfaces", "[io][export][febio]") {
+TEST_CASE("FEBio export: parts, domains, placeholder materials and surfaces",
+          "[io][export][febio]") {
     if (run("/usr/bin/python3 -c 'import xml.etree.ElementTree'").exit_code != 0) {
         FM_SKIP("python3 not installed");
     }
@@ -409,9 +428,12 @@ TEST_CASE("FEBio export: parts, domains, placeholder materials and surfaces", "[
         "print('nodes', len(r.findall('Mesh/Nodes/node')))\n"
         "for e in r.findall('Mesh/Elements'): print('part', e.get('name'), e.get('type'), len(e))\n"
         "for m in r.findall('Material/material'): print('material', m.get('name'))\n"
-        "for d in r.findall('MeshDomains/SolidDomain'): print('domain', d.get('name'), d.get('mat'))\n"
-        "for s in r.findall('Mesh/Surface'): print('surface', s.get('name'), len(s.findall('tri3')))\n"
-        "\" '" + path + "'");
+        "for d in r.findall('MeshDomains/SolidDomain'): print('domain', d.get('name'), "
+        "d.get('mat'))\n"
+        "for s in r.findall('Mesh/Surface'): print('surface', s.get('name'), "
+        "len(s.findall('tri3')))\n"
+        "\" '" +
+        path + "'");
     INFO(r.out);
     REQUIRE(r.exit_code == 0);
     CHECK_THAT(r.out, Catch::Contains("nodes " + std::to_string(mesh.node_count()) + "\n"));
@@ -419,16 +441,18 @@ TEST_CASE("FEBio export: parts, domains, placeholder materials and surfaces", "[
     for (core::Label l : mesh.region) ++per_region[l];
     for (const auto& [label, count] : per_region) {
         const std::string name = names.safe_name(label);
-        CHECK_THAT(r.out, Catch::Contains("part " + name + " tet4 " + std::to_string(count) + "\n"));
+        CHECK_THAT(r.out,
+                   Catch::Contains("part " + name + " tet4 " + std::to_string(count) + "\n"));
         CHECK_THAT(r.out, Catch::Contains("material " + name + "\n"));
         CHECK_THAT(r.out, Catch::Contains("domain " + name + " " + name + "\n"));
     }
     std::map<std::pair<int, int>, std::size_t> per_pair;
-    for (std::size_t f = 0; f < mesh.face_count(); ++f) ++per_pair[{mesh.region_in[f], mesh.region_out[f]}];
+    for (std::size_t f = 0; f < mesh.face_count(); ++f)
+        ++per_pair[{mesh.region_in[f], mesh.region_out[f]}];
     for (const auto& [pair, count] : per_pair) {
-        const std::string name = pair.second == 0
-                                     ? "boundary_" + names.safe_name(pair.first)
-                                     : "interface_" + names.safe_name(pair.first) + "_" + names.safe_name(pair.second);
+        const std::string name = pair.second == 0 ? "boundary_" + names.safe_name(pair.first)
+                                                  : "interface_" + names.safe_name(pair.first) +
+                                                        "_" + names.safe_name(pair.second);
         CHECK_THAT(r.out, Catch::Contains("surface " + name + " " + std::to_string(count) + "\n"));
     }
 }
@@ -453,18 +477,21 @@ TEST_CASE("Abaqus surfaces are the faces of region_in's tets", "[io][export]") {
             current.clear();
             surface.clear();
         } else if (!current.empty() && line.rfind("**", 0) != 0) {
-            set_size[current] += static_cast<std::size_t>(std::count(line.begin(), line.end(), ',')) + 1;
+            set_size[current] +=
+                static_cast<std::size_t>(std::count(line.begin(), line.end(), ',')) + 1;
         } else if (!surface.empty()) {
             surface_sets[surface].push_back(line.substr(0, line.find(',')));
         }
     }
     std::map<std::pair<int, int>, std::size_t> per_pair;
-    for (std::size_t f = 0; f < mesh.face_count(); ++f) ++per_pair[{mesh.region_in[f], mesh.region_out[f]}];
+    for (std::size_t f = 0; f < mesh.face_count(); ++f)
+        ++per_pair[{mesh.region_in[f], mesh.region_out[f]}];
     REQUIRE(surface_sets.size() == per_pair.size());
     for (const auto& [pair, count] : per_pair) {
-        const std::string name = pair.second == 0 ? "boundary_region_" + std::to_string(pair.first)
-                                                  : "interface_region_" + std::to_string(pair.first) + "_region_" +
-                                                        std::to_string(pair.second);
+        const std::string name = pair.second == 0
+                                     ? "boundary_region_" + std::to_string(pair.first)
+                                     : "interface_region_" + std::to_string(pair.first) +
+                                           "_region_" + std::to_string(pair.second);
         INFO(name);
         REQUIRE(surface_sets.count(name));
         std::size_t faces = 0;

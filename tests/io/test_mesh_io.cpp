@@ -14,8 +14,8 @@
 #include <catch2/catch.hpp>
 
 #include <vtkCellArray.h>
-#include <vtkCharArray.h>
 #include <vtkCellData.h>
+#include <vtkCharArray.h>
 #include <vtkDoubleArray.h>
 #include <vtkFieldData.h>
 #include <vtkFloatArray.h>
@@ -643,7 +643,8 @@ TEST_CASE("write_surface_vtu writes per-point arrays", "[io]") {
 TEST_CASE("write_tet_mesh_vtu round trip keeps tets, regions, boundary faces and levels", "[io]") {
     frontmesh::core::TetMesh mesh = frontmesh::fixtures::cube_tet_mesh(3, 1.5, true);
     mesh.level.assign(mesh.node_count(), 0);
-    for (std::size_t v = static_cast<std::size_t>(mesh.surface_vertices); v < mesh.node_count(); ++v)
+    for (std::size_t v = static_cast<std::size_t>(mesh.surface_vertices); v < mesh.node_count();
+         ++v)
         mesh.level[v] = 1;
     const std::string dir = frontmesh::fixtures::temp_dir("tet_vtu_round_trip");
     const std::string path = dir + "/mesh.vtu";
@@ -686,13 +687,15 @@ TEST_CASE("write_tet_mesh_vtu round trip keeps tets, regions, boundary faces and
     CHECK(derived.tets == mesh.tets);
 
     // The outside referee agrees: valid, and the boundary is the surface we wrote.
-    frontmesh::io::write_surface_vtu(frontmesh::core::boundary_surface(mesh), dir + "/surface.vtu", {});
+    frontmesh::io::write_surface_vtu(frontmesh::core::boundary_surface(mesh), dir + "/surface.vtu",
+                                     {});
     if (frontmesh::fixtures::meshcheck_path().empty()) {
         WARN("meshcheck.py not found; referee skipped");
         return;
     }
-    const std::string cmd = "/usr/bin/python3 '" + frontmesh::fixtures::meshcheck_path() + "' " + path +
-                            " --surface " + dir + "/surface.vtu --strict-surface > " + dir + "/meshcheck.txt 2>&1";
+    const std::string cmd = "/usr/bin/python3 '" + frontmesh::fixtures::meshcheck_path() + "' " +
+                            path + " --surface " + dir + "/surface.vtu --strict-surface > " + dir +
+                            "/meshcheck.txt 2>&1";
     CHECK(std::system(cmd.c_str()) == 0);
 }
 

@@ -26,8 +26,8 @@ inline std::string slurp(const std::filesystem::path& path) {
 /// Runs `frontmesh ARGS` in `dir`, returning exit code, stdout and stderr.
 inline CommandResult run_frontmesh(const std::string& args, const std::string& dir) {
     const std::string out = dir + "/.stdout", err = dir + "/.stderr";
-    const std::string command =
-        "cd '" + dir + "' && '" + FRONTMESH_BINARY + "' " + args + " > '" + out + "' 2> '" + err + "'";
+    const std::string command = "cd '" + dir + "' && '" + FRONTMESH_BINARY + "' " + args + " > '" +
+                                out + "' 2> '" + err + "'";
     const int status = std::system(command.c_str());
     CommandResult r;
     r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;

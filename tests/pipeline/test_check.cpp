@@ -29,7 +29,8 @@ const std::string kMeshcheck = fixtures::meshcheck_path();
 
 bool have_referee() {
     return !kMeshcheck.empty() &&
-           std::system("/usr/bin/python3 -c 'import numpy, meshio, vtkmodules' > /dev/null 2>&1") == 0;
+           std::system("/usr/bin/python3 -c 'import numpy, meshio, vtkmodules' > /dev/null 2>&1") ==
+               0;
 }
 
 /// The referee's verdict: exit code and its JSON figures "valid", "n_tets", skewness
@@ -44,8 +45,8 @@ struct Referee {
 Referee referee(const std::string& mesh, const std::string& dir, const std::string& extra = "") {
     const std::string json = dir + "/referee.json";
     fs::remove(json);
-    const std::string cmd = "/usr/bin/python3 " + kMeshcheck + " '" + mesh + "' " + extra + " --json '" + json +
-                            "' > '" + dir + "/referee.txt' 2>&1";
+    const std::string cmd = "/usr/bin/python3 " + kMeshcheck + " '" + mesh + "' " + extra +
+                            " --json '" + json + "' > '" + dir + "/referee.txt' 2>&1";
     const int status = std::system(cmd.c_str());
     Referee r;
     r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
@@ -70,7 +71,8 @@ core::TetMesh jittered_cube(double amplitude, unsigned seed) {
     core::TetMesh mesh = fixtures::cube_tet_mesh(4, 1.0, true);
     std::mt19937 rng(seed);
     std::uniform_real_distribution<double> d(-amplitude, amplitude);
-    for (std::size_t v = static_cast<std::size_t>(mesh.surface_vertices); v < mesh.node_count(); ++v)
+    for (std::size_t v = static_cast<std::size_t>(mesh.surface_vertices); v < mesh.node_count();
+         ++v)
         for (int k = 0; k < 3; ++k) mesh.xyz[3 * v + static_cast<std::size_t>(k)] += d(rng);
     return mesh;
 }
@@ -80,15 +82,17 @@ core::TetMesh cubes_sharing_an_edge() {
     core::TetMesh a = fixtures::cube_tet_mesh(1, 1.0);
     core::TetMesh mesh = a;
     std::map<std::array<double, 3>, std::int32_t> index;
-    for (std::size_t v = 0; v < a.node_count(); ++v) index[{a.xyz[3 * v], a.xyz[3 * v + 1], a.xyz[3 * v + 2]}] = static_cast<std::int32_t>(v);
+    for (std::size_t v = 0; v < a.node_count(); ++v)
+        index[{a.xyz[3 * v], a.xyz[3 * v + 1], a.xyz[3 * v + 2]}] = static_cast<std::int32_t>(v);
     std::vector<std::int32_t> map(a.node_count());
     for (std::size_t v = 0; v < a.node_count(); ++v) {
         const std::array<double, 3> p{a.xyz[3 * v] + 1.0, a.xyz[3 * v + 1] + 1.0, a.xyz[3 * v + 2]};
         const auto it = index.find(p);
         map[v] = it != index.end() ? it->second : mesh.add_node({p[0], p[1], p[2]});
     }
-    for (const auto& t : a.tets) mesh.add_tet(map[static_cast<std::size_t>(t[0])], map[static_cast<std::size_t>(t[1])],
-                                              map[static_cast<std::size_t>(t[2])], map[static_cast<std::size_t>(t[3])], 1);
+    for (const auto& t : a.tets)
+        mesh.add_tet(map[static_cast<std::size_t>(t[0])], map[static_cast<std::size_t>(t[1])],
+                     map[static_cast<std::size_t>(t[2])], map[static_cast<std::size_t>(t[3])], 1);
     core::derive_boundary_faces(mesh);
     mesh.surface_vertices = static_cast<std::int32_t>(mesh.node_count());
     return mesh;
@@ -179,7 +183,8 @@ TEST_CASE("frontmesh check agrees with meshcheck.py", "[pipeline][check][referee
         CHECK(ref.valid == c.valid);
         CHECK(ref.exit_code == (c.valid ? 0 : 1));
         CHECK(ours.exit_code == ref.exit_code);
-        CHECK_THAT(ours.out, Catch::Contains(std::string("\"valid\": ") + (ref.valid ? "true" : "false")));
+        CHECK_THAT(ours.out,
+                   Catch::Contains(std::string("\"valid\": ") + (ref.valid ? "true" : "false")));
         CHECK(json_count(ours.out, "n_tets") == ref.tets);
         CHECK(json_count(ours.out, "skewness_over_0_8") == ref.skew_over_08);
         skewed_total += ref.skew_over_08;
@@ -195,7 +200,8 @@ TEST_CASE("frontmesh check agrees with meshcheck.py", "[pipeline][check][referee
     io::write_surface_vtu(surface, dir + "/moved.vtu", {});
     for (const std::string ref_file : {"surface.vtu", "moved.vtu"}) {
         INFO(ref_file);
-        const Referee ref = referee(dir + "/cube.vtu", dir, "--surface '" + dir + "/" + ref_file + "' --strict-surface");
+        const Referee ref = referee(dir + "/cube.vtu", dir,
+                                    "--surface '" + dir + "/" + ref_file + "' --strict-surface");
         const auto ours = run_frontmesh("check cube.vtu --surface " + ref_file, dir);
         INFO(ours.out << ours.err);
         CHECK(ref.exit_code == (ref_file == "surface.vtu" ? 0 : 1));
@@ -235,13 +241,15 @@ TEST_CASE("frontmesh check and convert on the command line", "[pipeline][check]"
         r = run_frontmesh(std::string("check ") + f, dir);
         CHECK(r.exit_code == 0);
     }
-    CHECK_THAT(frontmesh::testing::slurp(dir + "/out.feb"), Catch::Contains("<SolidDomain name=\"White_matter\""));
+    CHECK_THAT(frontmesh::testing::slurp(dir + "/out.feb"),
+               Catch::Contains("<SolidDomain name=\"White_matter\""));
 
     // Bad input: exit 2 with one line naming the file.
     r = run_frontmesh("check missing.msh", dir);
     CHECK(r.exit_code == 2);
     CHECK_THAT(r.err, Catch::Contains("missing.msh"));
-    frontmesh::testing::write_file(dir + "/bad.mesh", "MeshVersionFormatted 2\nDimension 3\nVertices\n2\n0 0 0 0\n1 1\n");
+    frontmesh::testing::write_file(
+        dir + "/bad.mesh", "MeshVersionFormatted 2\nDimension 3\nVertices\n2\n0 0 0 0\n1 1\n");
     r = run_frontmesh("check bad.mesh", dir);
     CHECK(r.exit_code == 2);
     CHECK_THAT(r.err, Catch::Contains("bad.mesh:6"));

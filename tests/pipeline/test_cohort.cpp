@@ -65,22 +65,26 @@ std::map<fs::path, fs::file_time_type> checkpoint_times(const fs::path& root) {
 TEST_CASE("read_manifest: RFC 4180 quoting, relative images, empty cells", "[pipeline]") {
     const std::string dir = fixtures::temp_dir("cohort_manifest");
     write_file(dir + "/m.csv",
-               "\xEF\xBB\xBF" "id , image,input.labels,extract.blur_sigma_mm\r\n"
+               "\xEF\xBB\xBF"
+               "id , image,input.labels,extract.blur_sigma_mm\r\n"
                "\r\n"
                "a,img/a.nii.gz,\"[1, 2]\",0.5\r\n"
                "b, /abs/b.mha ,,\r\n"
                "c,\"with \"\"quotes\"\", commas\nand a line break.mha\",all,\n");
     const auto m = pipeline::read_manifest(dir + "/m.csv");
     REQUIRE(m.subjects.size() == 3);
-    CHECK(m.columns == std::vector<std::string>{"id", "image", "input.labels", "extract.blur_sigma_mm"});
+    CHECK(m.columns ==
+          std::vector<std::string>{"id", "image", "input.labels", "extract.blur_sigma_mm"});
     CHECK(m.subjects[0].id == "a");
     CHECK(m.subjects[0].image == (fs::path(dir) / "img/a.nii.gz").string());
     CHECK(m.subjects[0].overrides ==
-          std::vector<std::pair<std::string, std::string>>{{"input.labels", "[1, 2]"}, {"extract.blur_sigma_mm", "0.5"}});
+          std::vector<std::pair<std::string, std::string>>{{"input.labels", "[1, 2]"},
+                                                           {"extract.blur_sigma_mm", "0.5"}});
     CHECK(m.subjects[0].line == 3);
     CHECK(m.subjects[1].image == "/abs/b.mha");
     CHECK(m.subjects[1].overrides.empty());
-    CHECK(m.subjects[2].image == (fs::path(dir) / "with \"quotes\", commas\nand a line break.mha").string());
+    CHECK(m.subjects[2].image ==
+          (fs::path(dir) / "with \"quotes\", commas\nand a line break.mha").string());
     CHECK(m.subjects[2].overrides.size() == 1);
 
     auto error_of = [&](const std::string& text) {
@@ -92,26 +96,34 @@ TEST_CASE("read_manifest: RFC 4180 quoting, relative images, empty cells", "[pip
         }
         return std::string("no error");
     };
-    CHECK_THAT(error_of("id,image\na,\"open.mha\n"), Catch::Contains("bad.csv:2: a quoted field is not closed"));
-    CHECK_THAT(error_of("id,image\na,\"x\"y.mha\n"), Catch::Contains("bad.csv:2: text after the closing quote"));
-    CHECK_THAT(error_of("id,image\na,x.mha,extra\n"), Catch::Contains("bad.csv:2: 3 fields, but the header has 2"));
-    CHECK_THAT(error_of("image,id\nx.mha,a\ny.mha,b\nz.mha,a\n"), Catch::Contains("bad.csv:4: id 'a' is also on line 2"));
+    CHECK_THAT(error_of("id,image\na,\"open.mha\n"),
+               Catch::Contains("bad.csv:2: a quoted field is not closed"));
+    CHECK_THAT(error_of("id,image\na,\"x\"y.mha\n"),
+               Catch::Contains("bad.csv:2: text after the closing quote"));
+    CHECK_THAT(error_of("id,image\na,x.mha,extra\n"),
+               Catch::Contains("bad.csv:2: 3 fields, but the header has 2"));
+    CHECK_THAT(error_of("image,id\nx.mha,a\ny.mha,b\nz.mha,a\n"),
+               Catch::Contains("bad.csv:4: id 'a' is also on line 2"));
     CHECK_THAT(error_of("id,img\na,x.mha\n"), Catch::Contains("bad.csv:1: no 'image' column"));
-    CHECK_THAT(error_of("id,image\n../up,x.mha\n"), Catch::Contains("'../up' cannot be a folder name"));
+    CHECK_THAT(error_of("id,image\n../up,x.mha\n"),
+               Catch::Contains("'../up' cannot be a folder name"));
     CHECK_THAT(error_of("id,image\n.hidden,x.mha\n"), Catch::Contains("cannot be a folder name"));
     CHECK_THAT(error_of("id,image\na,\n"), Catch::Contains("empty image"));
-    CHECK_THAT(error_of("id,image,output.dir\na,x.mha,o\n"), Catch::Contains("column 'output.dir'"));
+    CHECK_THAT(error_of("id,image,output.dir\na,x.mha,o\n"),
+               Catch::Contains("column 'output.dir'"));
     CHECK_THAT(error_of("id,image,id\na,x.mha,b\n"), Catch::Contains("column 'id' appears twice"));
     CHECK_THAT(error_of("id,image\n"), Catch::Contains("no subjects"));
     CHECK_THAT(error_of(""), Catch::Contains("the manifest is empty"));
 }
 
-TEST_CASE("cohort: a failed subject is recorded, the others finish, a re-run does no work", "[pipeline]") {
+TEST_CASE("cohort: a failed subject is recorded, the others finish, a re-run does no work",
+          "[pipeline]") {
     const std::string dir = cohort_dir("cohort_run");
     write_file(dir + "/manifest.csv", kManifest);
     const fs::path out = fs::path(dir) / "out";
 
-    const auto first = run_frontmesh("cohort manifest.csv --recipe recipe.yaml -j 2 --until repair", dir);
+    const auto first =
+        run_frontmesh("cohort manifest.csv --recipe recipe.yaml -j 2 --until repair", dir);
     INFO(first.out << first.err);
     CHECK(first.exit_code == 1);
     for (const char* id : {"sub-01", "sub-02"}) {
@@ -120,9 +132,10 @@ TEST_CASE("cohort: a failed subject is recorded, the others finish, a re-run doe
         CHECK(fs::exists(out / id / "cohort-run.log"));
     }
     CHECK_FALSE(fs::exists(out / "sub-03" / "summary.json"));
-    CHECK_THAT(slurp(out / "sub-03" / "cohort-run.log"), Catch::Contains("missing.mha' does not exist"));
-    CHECK_THAT(first.err, Catch::Contains("sub-03 failed (exit 2)") && Catch::Contains("sub-01 ok in") &&
-                              Catch::Contains("[3/3]"));
+    CHECK_THAT(slurp(out / "sub-03" / "cohort-run.log"),
+               Catch::Contains("missing.mha' does not exist"));
+    CHECK_THAT(first.err, Catch::Contains("sub-03 failed (exit 2)") &&
+                              Catch::Contains("sub-01 ok in") && Catch::Contains("[3/3]"));
 
     auto rows = summary_rows(out / "cohort-summary.csv");
     REQUIRE(rows.size() == 3);
@@ -142,16 +155,19 @@ TEST_CASE("cohort: a failed subject is recorded, the others finish, a re-run doe
     CHECK(rows[1]["regions"] == "2");  // the quoted "[1, 2]" cell picked two of three labels
     CHECK(rows[2]["status"] == "failed");
     CHECK(rows[2]["exit_code"] == "2");
-    CHECK_THAT(rows[2]["error"], Catch::Contains("input.image") && Catch::Contains("missing.mha' does not exist"));
+    CHECK_THAT(rows[2]["error"],
+               Catch::Contains("input.image") && Catch::Contains("missing.mha' does not exist"));
     CHECK(rows[2]["faces"].empty());
     const std::string json = slurp(out / "cohort-summary.json");
-    CHECK_THAT(json, Catch::Contains("\"counts\": {\"ok\": 2, \"skipped\": 0, \"failed\": 1}") &&
-                         Catch::Contains("\"id\": \"sub-03\", \"status\": \"failed\", \"exit_code\": 2"));
+    CHECK_THAT(json,
+               Catch::Contains("\"counts\": {\"ok\": 2, \"skipped\": 0, \"failed\": 1}") &&
+                   Catch::Contains("\"id\": \"sub-03\", \"status\": \"failed\", \"exit_code\": 2"));
 
     SECTION("a re-run skips the finished subjects and still fails the missing one") {
         const auto times = checkpoint_times(out);
         REQUIRE(times.size() == 4);
-        const auto again = run_frontmesh("cohort manifest.csv --recipe recipe.yaml -j 2 --until repair", dir);
+        const auto again =
+            run_frontmesh("cohort manifest.csv --recipe recipe.yaml -j 2 --until repair", dir);
         INFO(again.err);
         CHECK(again.exit_code == 1);
         CHECK(checkpoint_times(out) == times);
@@ -164,9 +180,11 @@ TEST_CASE("cohort: a failed subject is recorded, the others finish, a re-run doe
         CHECK_THAT(again.err, Catch::Contains("sub-01 skipped"));
     }
     SECTION("a changed cell re-runs that subject only") {
-        write_file(dir + "/manifest.csv", std::string(kManifest).replace(std::string(kManifest).find(",4\n"), 3, ",6\n"));
+        write_file(dir + "/manifest.csv",
+                   std::string(kManifest).replace(std::string(kManifest).find(",4\n"), 3, ",6\n"));
         const auto sub01 = checkpoint_times(out / "sub-01");
-        const auto again = run_frontmesh("cohort manifest.csv --recipe recipe.yaml --quiet --until repair", dir);
+        const auto again =
+            run_frontmesh("cohort manifest.csv --recipe recipe.yaml --quiet --until repair", dir);
         CHECK(again.exit_code == 1);
         CHECK(again.err.empty());
         CHECK(checkpoint_times(out / "sub-01") == sub01);
@@ -176,7 +194,9 @@ TEST_CASE("cohort: a failed subject is recorded, the others finish, a re-run doe
     }
     SECTION("all subjects valid: exit 0, root moved with --set output.dir") {
         write_file(dir + "/valid.csv", "id,image\nsmall,small.mha\nlarge,large.mha\n");
-        const auto valid = run_frontmesh("cohort valid.csv --recipe recipe.yaml -j 2 --until repair --set output.dir=valid-out", dir);
+        const auto valid = run_frontmesh(
+            "cohort valid.csv --recipe recipe.yaml -j 2 --until repair --set output.dir=valid-out",
+            dir);
         INFO(valid.err);
         CHECK(valid.exit_code == 0);
         rows = summary_rows(fs::path(dir) / "valid-out/cohort-summary.csv");
@@ -212,12 +232,17 @@ TEST_CASE("cohort: -j 2 gives the rows of -j 1", "[pipeline]") {
     const std::string dir = cohort_dir("cohort_jobs");
     write_file(dir + "/manifest.csv", kManifest);
     // The surface stages are enough to compare the two schedules (--until reaches every subject).
-    CHECK(run_frontmesh("cohort manifest.csv --recipe recipe.yaml --quiet -j 1 --until repair --set output.dir=one", dir)
+    CHECK(run_frontmesh("cohort manifest.csv --recipe recipe.yaml --quiet -j 1 --until repair "
+                        "--set output.dir=one",
+                        dir)
               .exit_code == 1);
-    CHECK(run_frontmesh("cohort manifest.csv --recipe recipe.yaml --quiet -j2 --until repair --set output.dir=two", dir)
+    CHECK(run_frontmesh("cohort manifest.csv --recipe recipe.yaml --quiet -j2 --until repair --set "
+                        "output.dir=two",
+                        dir)
               .exit_code == 1);
     CHECK_FALSE(fs::exists(fs::path(dir) / "one/sub-01/checkpoints/04-tetra.vtu"));
-    CHECK(run_frontmesh("cohort manifest.csv --recipe recipe.yaml --quiet --until nowhere", dir).exit_code == 2);
+    CHECK(run_frontmesh("cohort manifest.csv --recipe recipe.yaml --quiet --until nowhere", dir)
+              .exit_code == 2);
     auto one = summary_rows(fs::path(dir) / "one/cohort-summary.csv");
     auto two = summary_rows(fs::path(dir) / "two/cohort-summary.csv");
     REQUIRE(one.size() == 3);
@@ -232,9 +257,11 @@ TEST_CASE("cohort: -j 2 gives the rows of -j 1", "[pipeline]") {
           slurp(fs::path(dir) / "two/sub-02/checkpoints/02-repair.vtu"));
 }
 
-TEST_CASE("cohort: a bad manifest or recipe exits 2 with one line and writes nothing", "[pipeline]") {
+TEST_CASE("cohort: a bad manifest or recipe exits 2 with one line and writes nothing",
+          "[pipeline]") {
     const std::string dir = cohort_dir("cohort_bad");
-    auto expect_clean_failure = [&](const std::string& manifest, const std::string& args, const std::string& needle) {
+    auto expect_clean_failure = [&](const std::string& manifest, const std::string& args,
+                                    const std::string& needle) {
         write_file(dir + "/bad.csv", manifest);
         const auto r = run_frontmesh("cohort bad.csv --recipe recipe.yaml " + args, dir);
         INFO(manifest << args << "\n" << r.err);
@@ -244,19 +271,26 @@ TEST_CASE("cohort: a bad manifest or recipe exits 2 with one line and writes not
         CHECK_FALSE(fs::exists(fs::path(dir) / "out"));
     };
     expect_clean_failure("id,file\nsub-01,small.mha\n", "", "bad.csv:1: no 'image' column");
-    expect_clean_failure("id,image\nsub-01,small.mha\nsub-01,large.mha\n", "", "bad.csv:3: id 'sub-01' is also on line 2");
-    expect_clean_failure("id,image,input.threshhold\nsub-01,small.mha,\n", "",
-                         "bad.csv:1: column input.threshhold: unknown key; did you mean 'input.threshold'?");
-    expect_clean_failure("id,image,extract.smoothing_iterations\nsub-01,small.mha,4\nsub-02,large.mha,many\n", "",
-                         "bad.csv:3: subject 'sub-02': extract.smoothing_iterations: expected a whole number, got 'many'");
+    expect_clean_failure("id,image\nsub-01,small.mha\nsub-01,large.mha\n", "",
+                         "bad.csv:3: id 'sub-01' is also on line 2");
+    expect_clean_failure(
+        "id,image,input.threshhold\nsub-01,small.mha,\n", "",
+        "bad.csv:1: column input.threshhold: unknown key; did you mean 'input.threshold'?");
+    expect_clean_failure(
+        "id,image,extract.smoothing_iterations\nsub-01,small.mha,4\nsub-02,large.mha,many\n", "",
+        "bad.csv:3: subject 'sub-02': extract.smoothing_iterations: expected a whole number, got "
+        "'many'");
     expect_clean_failure("id,image\nsub/01,small.mha\n", "", "cannot be a folder name");
     // A missing image is the subject's failure, but a bad value beside it is still the manifest's.
-    expect_clean_failure("id,image,extract.blur_sigma_mm\nsub-01,gone.mha,-1\n", "", "subject 'sub-01': extract.blur_sigma_mm");
-    expect_clean_failure("id,image\nsub-01,small.mha\n", "--set extract.methd=auto", "did you mean 'extract.method'");
+    expect_clean_failure("id,image,extract.blur_sigma_mm\nsub-01,gone.mha,-1\n", "",
+                         "subject 'sub-01': extract.blur_sigma_mm");
+    expect_clean_failure("id,image\nsub-01,small.mha\n", "--set extract.methd=auto",
+                         "did you mean 'extract.method'");
     expect_clean_failure("id,image\nsub-01,small.mha\n", "-j 0", "-j 0");
     expect_clean_failure("id,image\nsub-01,small.mha\n", "--from repair", "--from");
     write_file(dir + "/typo.yaml", "output:\n  dri: out\n");
-    expect_clean_failure("id,image\nsub-01,small.mha\n", "--recipe typo.yaml", "did you mean 'output.dir'");
+    expect_clean_failure("id,image\nsub-01,small.mha\n", "--recipe typo.yaml",
+                         "did you mean 'output.dir'");
     const auto no_recipe = run_frontmesh("cohort bad.csv", dir);
     CHECK(no_recipe.exit_code == 2);
     CHECK_THAT(no_recipe.err, Catch::Contains("--recipe"));
@@ -268,10 +302,12 @@ TEST_CASE("cohort: a bad manifest or recipe exits 2 with one line and writes not
 TEST_CASE("cohort: a crashing subject is recorded and cannot take the others down", "[pipeline]") {
     const std::string dir = cohort_dir("cohort_signal");
     // A stand-in executable: kills itself for subject sub-segv, runs frontmesh for the others.
-    write_file(dir + "/fake-frontmesh.sh", "#!/bin/sh\ncase \"$*\" in *sub-segv*) ulimit -c 0; kill -SEGV $$ ;; esac\nexec '" +
-                                               std::string(FRONTMESH_BINARY) + "' \"$@\"\n");
+    write_file(dir + "/fake-frontmesh.sh",
+               "#!/bin/sh\ncase \"$*\" in *sub-segv*) ulimit -c 0; kill -SEGV $$ ;; esac\nexec '" +
+                   std::string(FRONTMESH_BINARY) + "' \"$@\"\n");
     fs::permissions(dir + "/fake-frontmesh.sh", fs::perms::owner_all);
-    write_file(dir + "/manifest.csv", "id,image\nfirst,small.mha\nsub-segv,large.mha\nlast,large.mha\n");
+    write_file(dir + "/manifest.csv",
+               "id,image\nfirst,small.mha\nsub-segv,large.mha\nlast,large.mha\n");
     std::vector<std::string> progress;
     pipeline::CohortOptions options;
     options.recipe = dir + "/recipe.yaml";
@@ -308,17 +344,21 @@ TEST_CASE("cohort Snakefile runs two subjects locally with snakemake -j 2", "[pi
         return;
     }
     const std::string dir = cohort_dir("cohort_snakemake");
-    write_file(dir + "/manifest.csv", "id,image,extract.smoothing_iterations\nsmall,small.mha,\nlarge,large.mha,4\n");
-    write_file(dir + "/config.yaml", "manifest: " + dir + "/manifest.csv\nrecipe: " + dir + "/recipe.yaml\noutdir: " +
-                                         dir + "/smk-out\nfrontmesh: " + FRONTMESH_BINARY + "\nthreads: 1\nuntil: repair\n");
-    const std::string command = "cd '" + dir + "' && snakemake -s '" + FRONTMESH_SOURCE_DIR +
-                                "/examples/cohort/Snakefile' -j 2 --configfile config.yaml > snakemake.txt 2>&1";
+    write_file(dir + "/manifest.csv",
+               "id,image,extract.smoothing_iterations\nsmall,small.mha,\nlarge,large.mha,4\n");
+    write_file(dir + "/config.yaml", "manifest: " + dir + "/manifest.csv\nrecipe: " + dir +
+                                         "/recipe.yaml\noutdir: " + dir + "/smk-out\nfrontmesh: " +
+                                         FRONTMESH_BINARY + "\nthreads: 1\nuntil: repair\n");
+    const std::string command =
+        "cd '" + dir + "' && snakemake -s '" + FRONTMESH_SOURCE_DIR +
+        "/examples/cohort/Snakefile' -j 2 --configfile config.yaml > snakemake.txt 2>&1";
     const int status = std::system(command.c_str());
     INFO(slurp(dir + "/snakemake.txt"));
     REQUIRE(WIFEXITED(status));
     CHECK(WEXITSTATUS(status) == 0);
     for (const char* id : {"small", "large"})
-        CHECK_THAT(slurp(dir + "/smk-out/" + id + "/summary.json"), Catch::Contains("\"status\": \"ok\""));
+        CHECK_THAT(slurp(dir + "/smk-out/" + id + "/summary.json"),
+                   Catch::Contains("\"status\": \"ok\""));
     const auto rows = summary_rows(dir + "/smk-out/cohort-summary.csv");
     REQUIRE(rows.size() == 2);
     CHECK(rows[0].at("id") == "small");
@@ -330,16 +370,20 @@ TEST_CASE("cohort Snakefile runs two subjects locally with snakemake -j 2", "[pi
     SECTION("the SLURM profile submits each subject through sbatch with its resources") {
         // A stand-in sbatch: records its options, runs the job script at once, prints a job id.
         fs::create_directories(dir + "/fakebin");
-        write_file(dir + "/fakebin/sbatch",
-                   "#!/bin/sh\necho \"$@\" >> \"$(dirname \"$0\")/calls.txt\"\nfor script; do :; done\n"
-                   "sh \"$script\" > \"$(dirname \"$0\")/job-$$.out\" 2>&1\necho $$\n");
+        write_file(
+            dir + "/fakebin/sbatch",
+            "#!/bin/sh\necho \"$@\" >> \"$(dirname \"$0\")/calls.txt\"\nfor script; do :; done\n"
+            "sh \"$script\" > \"$(dirname \"$0\")/job-$$.out\" 2>&1\necho $$\n");
         fs::permissions(dir + "/fakebin/sbatch", fs::perms::owner_all);
-        write_file(dir + "/slurm.yaml", "manifest: " + dir + "/manifest.csv\nrecipe: " + dir + "/recipe.yaml\noutdir: " +
-                                            dir + "/slurm-out\nfrontmesh: " + FRONTMESH_BINARY + "\nthreads: 1\nuntil: repair\n");
-        const std::string slurm = "cd '" + dir + "' && PATH='" + dir + "/fakebin':\"$PATH\" snakemake -s '" +
-                                  FRONTMESH_SOURCE_DIR + "/examples/cohort/Snakefile' --profile '" +
-                                  FRONTMESH_SOURCE_DIR +
-                                  "/examples/cohort/profiles/slurm' --configfile slurm.yaml > slurm.txt 2>&1";
+        write_file(dir + "/slurm.yaml", "manifest: " + dir + "/manifest.csv\nrecipe: " + dir +
+                                            "/recipe.yaml\noutdir: " + dir +
+                                            "/slurm-out\nfrontmesh: " + FRONTMESH_BINARY +
+                                            "\nthreads: 1\nuntil: repair\n");
+        const std::string slurm =
+            "cd '" + dir + "' && PATH='" + dir + "/fakebin':\"$PATH\" snakemake -s '" +
+            FRONTMESH_SOURCE_DIR + "/examples/cohort/Snakefile' --profile '" +
+            FRONTMESH_SOURCE_DIR +
+            "/examples/cohort/profiles/slurm' --configfile slurm.yaml > slurm.txt 2>&1";
         const int slurm_status = std::system(slurm.c_str());
         INFO(slurp(dir + "/slurm.txt"));
         CHECK(WEXITSTATUS(slurm_status) == 0);

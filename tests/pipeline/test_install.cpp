@@ -21,7 +21,8 @@ int shell(const std::string& command, const std::string& log) {
 }  // namespace
 
 TEST_CASE("the installed CMake package builds and runs examples/consumer", "[pipeline][install]") {
-    const fs::path build = fs::path(FRONTMESH_TEST_TMP).parent_path().parent_path();  // BUILD/tests/tmp
+    const fs::path build =
+        fs::path(FRONTMESH_TEST_TMP).parent_path().parent_path();  // BUILD/tests/tmp
     REQUIRE(fs::exists(build / "CMakeCache.txt"));
     const std::string dir = frontmesh::fixtures::temp_dir("install");
     const std::string prefix = dir + "/prefix", log = dir + "/log.txt";
@@ -34,8 +35,9 @@ TEST_CASE("the installed CMake package builds and runs examples/consumer", "[pip
     CHECK(fs::exists(prefix + "/bin/frontmesh"));
 
     const std::string consumer = dir + "/consumer";
-    const std::string configure = "cmake -S '" + std::string(FRONTMESH_SOURCE_DIR) + "/examples/consumer' -B '" +
-                                  consumer + "' -DCMAKE_BUILD_TYPE=Release -DCMAKE_PREFIX_PATH='" + prefix + "'";
+    const std::string configure =
+        "cmake -S '" + std::string(FRONTMESH_SOURCE_DIR) + "/examples/consumer' -B '" + consumer +
+        "' -DCMAKE_BUILD_TYPE=Release -DCMAKE_PREFIX_PATH='" + prefix + "'";
     const int configured = shell(configure, log);
     INFO(slurp(log));
     REQUIRE(configured == 0);
@@ -44,9 +46,12 @@ TEST_CASE("the installed CMake package builds and runs examples/consumer", "[pip
     REQUIRE(built == 0);
 
     // Run a stage in memory and a recipe (extract only) on a phantom.
-    frontmesh::fixtures::write_metaimage(frontmesh::fixtures::sphere_image(20, 6.0), dir + "/ball.mha");
+    frontmesh::fixtures::write_metaimage(frontmesh::fixtures::sphere_image(20, 6.0),
+                                         dir + "/ball.mha");
     frontmesh::testing::write_file(dir + "/recipe.yaml", "input:\n  image: ball.mha\n");
-    const int ran = shell("'" + consumer + "/frontmesh_consumer' '" + dir + "/recipe.yaml' '" + dir + "/out' extract", log);
+    const int ran = shell(
+        "'" + consumer + "/frontmesh_consumer' '" + dir + "/recipe.yaml' '" + dir + "/out' extract",
+        log);
     const std::string out = slurp(log);
     INFO(out);
     REQUIRE(ran == 0);

@@ -35,7 +35,8 @@ TEST_CASE("quality histograms count every element", "[pipeline][report]") {
     CHECK(h.min_dihedral_deg == Approx(45.0));
     CHECK(h.max_dihedral_deg == Approx(90.0));
     // 45, 60 and 90 degrees sit on bin edges: either neighbour.
-    CHECK(h.dihedral[8] + h.dihedral[9] + h.dihedral[11] + h.dihedral[12] + h.dihedral[17] + h.dihedral[18] ==
+    CHECK(h.dihedral[8] + h.dihedral[9] + h.dihedral[11] + h.dihedral[12] + h.dihedral[17] +
+              h.dihedral[18] ==
           6 * mesh.tet_count());
     CHECK(h.regions.size() == 2);
     CHECK(h.regions.at(1).tets + h.regions.at(2).tets == mesh.tet_count());
@@ -49,7 +50,8 @@ TEST_CASE("quality report files", "[pipeline][report]") {
     core::TetMesh after = before;
     std::mt19937 rng(3);
     std::uniform_real_distribution<double> d(-0.3, 0.3);
-    for (std::size_t v = static_cast<std::size_t>(before.surface_vertices); v < before.node_count(); ++v)
+    for (std::size_t v = static_cast<std::size_t>(before.surface_vertices); v < before.node_count();
+         ++v)
         for (int k = 0; k < 3; ++k) before.xyz[3 * v + static_cast<std::size_t>(k)] += d(rng);
     const auto hb = pipeline::quality_histograms(before);
     REQUIRE(hb.tet_over_08 > 0);  // a tail to annotate
@@ -64,12 +66,15 @@ TEST_CASE("quality report files", "[pipeline][report]") {
     CHECK(html.find("<svg") != std::string::npos);
     CHECK(html.find("src=") == std::string::npos);  // self-contained
     // Every file parses as XML (the HTML without its doctype).
-    for (const char* f : {"surface_skewness.svg", "tet_skewness.svg", "dihedral.svg", "min_dihedral.svg"}) {
+    for (const char* f :
+         {"surface_skewness.svg", "tet_skewness.svg", "dihedral.svg", "min_dihedral.svg"}) {
         INFO(f);
-        const std::string cmd = "/usr/bin/python3 -c \"import sys, xml.etree.ElementTree as E; "
-                                "r = E.parse(sys.argv[1]).getroot(); assert r.tag.endswith('svg')\" '" +
-                                dir + "/" + f + "' > /dev/null 2>&1";
-        if (std::system("/usr/bin/python3 -c 'pass' > /dev/null 2>&1") == 0) CHECK(std::system(cmd.c_str()) == 0);
+        const std::string cmd =
+            "/usr/bin/python3 -c \"import sys, xml.etree.ElementTree as E; "
+            "r = E.parse(sys.argv[1]).getroot(); assert r.tag.endswith('svg')\" '" +
+            dir + "/" + f + "' > /dev/null 2>&1";
+        if (std::system("/usr/bin/python3 -c 'pass' > /dev/null 2>&1") == 0)
+            CHECK(std::system(cmd.c_str()) == 0);
     }
     // The count of skewed tets before refinement is written above its bars.
     const std::string tet_svg = frontmesh::testing::slurp(dir + "/tet_skewness.svg");

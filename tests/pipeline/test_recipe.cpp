@@ -37,8 +37,10 @@ std::string error_of(const std::string& text, const std::vector<std::string>& ov
 TEST_CASE("a valid recipe is typed with defaults and relative paths resolved", "[pipeline]") {
     const std::string dir = fixtures::temp_dir("recipe_ok");
     fixtures::write_metaimage(fixtures::sphere_image(8, 2.0), dir + "/ball.mha");
-    write_file(dir + "/r.yaml", "input:\n  image: ball.mha\n  labels: [1]\nextract:\n  smoothing_iterations: 3\n");
-    const auto r = pipeline::load_recipe(dir + "/r.yaml", {"extract.blur_sigma_mm=0.5", "output.frame=ras"});
+    write_file(dir + "/r.yaml",
+               "input:\n  image: ball.mha\n  labels: [1]\nextract:\n  smoothing_iterations: 3\n");
+    const auto r =
+        pipeline::load_recipe(dir + "/r.yaml", {"extract.blur_sigma_mm=0.5", "output.frame=ras"});
     CHECK(r.input.image == (std::filesystem::path(dir) / "ball.mha").lexically_normal().string());
     CHECK(r.input.labels == std::vector<core::Label>{1});
     CHECK(r.extract.labels == std::vector<core::Label>{1});
@@ -52,7 +54,8 @@ TEST_CASE("a valid recipe is typed with defaults and relative paths resolved", "
 TEST_CASE("recipe errors: one line naming file, line and key", "[pipeline]") {
     SECTION("misspelled key, with a suggestion") {
         const auto e = error_of("input:\n  image: ball.mha\nextract:\n  smoothing_iteration: 3\n");
-        CHECK_THAT(e, Catch::Contains("r.yaml:4") && Catch::Contains("extract.smoothing_iteration") &&
+        CHECK_THAT(e, Catch::Contains("r.yaml:4") &&
+                          Catch::Contains("extract.smoothing_iteration") &&
                           Catch::Contains("did you mean 'extract.smoothing_iterations'"));
     }
     SECTION("misspelled section") {
@@ -66,7 +69,8 @@ TEST_CASE("recipe errors: one line naming file, line and key", "[pipeline]") {
     }
     SECTION("out of range") {
         const auto e = error_of("input:\n  image: ball.mha\nextract:\n  smoothing_relaxation: 2\n");
-        CHECK_THAT(e, Catch::Contains("r.yaml:4") && Catch::Contains("extract.smoothing_relaxation") &&
+        CHECK_THAT(e, Catch::Contains("r.yaml:4") &&
+                          Catch::Contains("extract.smoothing_relaxation") &&
                           Catch::Contains("must be in"));
     }
     SECTION("unknown choice") {
@@ -83,10 +87,12 @@ TEST_CASE("recipe errors: one line naming file, line and key", "[pipeline]") {
         CHECK_THAT(e, Catch::Contains("input.labels") && Catch::Contains("empty"));
     }
     SECTION("label zero") {
-        CHECK_THAT(error_of("input:\n  image: ball.mha\n  labels: [0, 2]\n"), Catch::Contains("input.labels"));
+        CHECK_THAT(error_of("input:\n  image: ball.mha\n  labels: [0, 2]\n"),
+                   Catch::Contains("input.labels"));
     }
     SECTION("neither image nor surface") {
-        CHECK_THAT(error_of("output:\n  dir: x\n"), Catch::Contains("input.image or input.surface"));
+        CHECK_THAT(error_of("output:\n  dir: x\n"),
+                   Catch::Contains("input.image or input.surface"));
     }
     SECTION("YAML syntax") {
         CHECK_THAT(error_of("input:\n  image: [ball.mha\n"), Catch::Contains("YAML syntax error"));
@@ -111,19 +117,24 @@ TEST_CASE("recipe errors: one line naming file, line and key", "[pipeline]") {
                    Catch::Contains("refine.passes") && Catch::Contains("whole number"));
         CHECK_THAT(error_of("input:\n  image: ball.mha\nrefine:\n  flip_skewnes: 0.3\n"),
                    Catch::Contains("did you mean 'refine.flip_skewness'"));
-        CHECK(error_of("input:\n  image: ball.mha\ntetra:\n  stretching: 1.05\nrefine:\n  passes: 2\n") == "");
+        CHECK(
+            error_of(
+                "input:\n  image: ball.mha\ntetra:\n  stretching: 1.05\nrefine:\n  passes: 2\n") ==
+            "");
     }
     SECTION("--set errors name the override") {
         CHECK_THAT(error_of("input:\n  image: ball.mha\n", {"extract.methd=auto"}),
                    Catch::Contains("--set") && Catch::Contains("did you mean 'extract.method'"));
         CHECK_THAT(error_of("input:\n  image: ball.mha\n", {"repair.max_hole_edges=-4"}),
                    Catch::Contains("--set") && Catch::Contains("repair.max_hole_edges"));
-        CHECK_THAT(error_of("input:\n  image: ball.mha\n", {"noequals"}), Catch::Contains("key.path=value"));
+        CHECK_THAT(error_of("input:\n  image: ball.mha\n", {"noequals"}),
+                   Catch::Contains("key.path=value"));
     }
     SECTION("a valid recipe has no error") { CHECK(error_of("input:\n  image: ball.mha\n") == ""); }
 }
 
-TEST_CASE("configs/reference.yaml documents every key with its default, and is valid", "[pipeline]") {
+TEST_CASE("configs/reference.yaml documents every key with its default, and is valid",
+          "[pipeline]") {
     const std::string path = std::string(FRONTMESH_SOURCE_DIR) + "/configs/reference.yaml";
     const std::string text = frontmesh::testing::slurp(path);
     for (const auto& [key, value, range, unit, doc] : pipeline::recipe_keys()) {
@@ -131,7 +142,8 @@ TEST_CASE("configs/reference.yaml documents every key with its default, and is v
         const std::string leaf = key.substr(key.find('.') + 1);
         if (key == "input.image") continue;  // the reference names an example image
         // "  leaf: default" somewhere below its section.
-        const std::regex line("\\n  " + leaf + ": " + std::regex_replace(value, std::regex("[.\\[\\]{}]"), "\\$&") + "\\s");
+        const std::regex line("\\n  " + leaf + ": " +
+                              std::regex_replace(value, std::regex("[.\\[\\]{}]"), "\\$&") + "\\s");
         CHECK(std::regex_search(text, line));
     }
     CHECK_NOTHROW(pipeline::load_recipe(path));

@@ -22,26 +22,31 @@ namespace {
 const std::string kReferee = fixtures::meshcheck_path();
 
 // meshcheck.py MESH --surface SURFACE --strict-surface: exit status and its report.
-std::pair<int, std::string> referee(const fs::path& mesh, const fs::path& surface, const fs::path& dir) {
+std::pair<int, std::string> referee(const fs::path& mesh, const fs::path& surface,
+                                    const fs::path& dir) {
     const fs::path report = dir / "meshcheck.txt";
-    const std::string cmd = "/usr/bin/python3 '" + kReferee + "' '" + mesh.string() + "' --surface '" +
-                            surface.string() + "' --strict-surface --json '" + (dir / "meshcheck.json").string() +
-                            "' > '" + report.string() + "' 2>&1";
+    const std::string cmd = "/usr/bin/python3 '" + kReferee + "' '" + mesh.string() +
+                            "' --surface '" + surface.string() + "' --strict-surface --json '" +
+                            (dir / "meshcheck.json").string() + "' > '" + report.string() +
+                            "' 2>&1";
     const int status = std::system(cmd.c_str());
     return {WEXITSTATUS(status), slurp(report)};
 }
 
 }  // namespace
 
-TEST_CASE("nested phantom: image to refined tet mesh, three regions, surface kept", "[pipeline][volume]") {
+TEST_CASE("nested phantom: image to refined tet mesh, three regions, surface kept",
+          "[pipeline][volume]") {
     const std::string dir = fixtures::temp_dir("run_volume_phantom");
     fixtures::write_metaimage(fixtures::nested_ellipsoids_image(1.0, 0.6), dir + "/phantom.mha");
-    write_file(dir + "/recipe.yaml", "input:\n  image: phantom.mha\noutput:\n  dir: out\n  formats: [vtu, msh]\n");
+    write_file(dir + "/recipe.yaml",
+               "input:\n  image: phantom.mha\noutput:\n  dir: out\n  formats: [vtu, msh]\n");
     const auto r = run_frontmesh("run recipe.yaml --quiet", dir);
     INFO(r.err);
     REQUIRE(r.exit_code == 0);
     const fs::path out = fs::path(dir) / "out";
-    for (const char* f : {"checkpoints/04-tetra.vtu", "checkpoints/05-refine.vtu", "mesh.vtu", "run.pvd"})
+    for (const char* f :
+         {"checkpoints/04-tetra.vtu", "checkpoints/05-refine.vtu", "mesh.vtu", "run.pvd"})
         CHECK(fs::exists(out / f));
 
     // Our own checks: valid, every region's volume equal to what its boundary encloses.
@@ -62,27 +67,31 @@ TEST_CASE("nested phantom: image to refined tet mesh, three regions, surface kep
 
     // The outside referee: valid, and the remeshed surface is kept exactly.
     if (fs::exists(kReferee)) {
-        const auto [status, report] = referee(out / "mesh.vtu", out / "checkpoints/03-remesh.vtu", dir);
+        const auto [status, report] =
+            referee(out / "mesh.vtu", out / "checkpoints/03-remesh.vtu", dir);
         INFO(report);
         CHECK(status == 0);
     } else {
         WARN("meshcheck.py not found beside the repository; referee skipped");
     }
     // Other tools read the result: meshio sees the same nodes, tets and regions.
-    const std::string py = "/usr/bin/python3 -c \"import meshio, sys; m = meshio.read(sys.argv[1]); "
-                           "print(len(m.points), len(m.cells_dict['tetra']), "
-                           "sorted(set(int(r) for r in m.cell_data['region'][0])))\" '" +
-                           (out / "mesh.vtu").string() + "' > '" + dir + "/meshio.txt' 2>&1";
+    const std::string py =
+        "/usr/bin/python3 -c \"import meshio, sys; m = meshio.read(sys.argv[1]); "
+        "print(len(m.points), len(m.cells_dict['tetra']), "
+        "sorted(set(int(r) for r in m.cell_data['region'][0])))\" '" +
+        (out / "mesh.vtu").string() + "' > '" + dir + "/meshio.txt' 2>&1";
     CHECK(std::system(py.c_str()) == 0);
     CHECK_THAT(slurp(fs::path(dir) / "meshio.txt"),
-               Catch::Contains(std::to_string(mesh.node_count()) + " " + std::to_string(mesh.tet_count()) +
-                               " [1, 2, 3]\n"));
+               Catch::Contains(std::to_string(mesh.node_count()) + " " +
+                               std::to_string(mesh.tet_count()) + " [1, 2, 3]\n"));
 
     const std::string summary = slurp(out / "summary.json");
-    CHECK_THAT(summary, Catch::Contains("\"name\": \"tetra\"") && Catch::Contains("\"name\": \"refine\"") &&
+    CHECK_THAT(summary, Catch::Contains("\"name\": \"tetra\"") &&
+                            Catch::Contains("\"name\": \"refine\"") &&
                             Catch::Contains("\"valid\": true") && Catch::Contains("refine.pass1."));
 
-    for (const char* f : {"mesh.msh", "report.html", "tet_skewness.svg"}) CHECK(fs::exists(out / f));
+    for (const char* f : {"mesh.msh", "report.html", "tet_skewness.svg"})
+        CHECK(fs::exists(out / f));
 
     // An unchanged re-run does no work: no stage runs, no result file is written again.
     const auto mesh_time = fs::last_write_time(out / "mesh.vtu");
@@ -99,7 +108,8 @@ TEST_CASE("nested phantom: image to refined tet mesh, three regions, surface kep
         const auto again = run_frontmesh("run recipe.yaml --from refine", dir);
         INFO(again.err);
         CHECK(again.exit_code == 0);
-        CHECK_THAT(again.err, Catch::Contains("reading checkpoint") && Catch::Contains("04-tetra.vtu"));
+        CHECK_THAT(again.err,
+                   Catch::Contains("reading checkpoint") && Catch::Contains("04-tetra.vtu"));
         CHECK(io::read_tet_mesh((out / "mesh.vtu").string()).tets == mesh.tets);  // deterministic
     }
 }
@@ -107,7 +117,8 @@ TEST_CASE("nested phantom: image to refined tet mesh, three regions, surface kep
 TEST_CASE("a surface is meshed as it is with --from tetra", "[pipeline][volume]") {
     const std::string dir = fixtures::temp_dir("run_volume_surface");
     io::write_surface_vtu(fixtures::uv_sphere(10.0, 12), dir + "/sphere.vtu", {});
-    write_file(dir + "/recipe.yaml", "input:\n  surface: sphere.vtu\noutput:\n  dir: out\ntetra:\n  stretching: 1.05\n");
+    write_file(dir + "/recipe.yaml",
+               "input:\n  surface: sphere.vtu\noutput:\n  dir: out\ntetra:\n  stretching: 1.05\n");
     const auto r = run_frontmesh("run recipe.yaml --quiet --from tetra", dir);
     INFO(r.err);
     REQUIRE(r.exit_code == 0);
@@ -136,10 +147,12 @@ TEST_CASE("a surface is meshed as it is with --from tetra", "[pipeline][volume]"
     CHECK(fs::last_write_time(out / "mesh.vtu") == before);
 }
 
-TEST_CASE("AAL left hippocampus: real image to refined tets, refereed, exported", "[pipeline][volume][e2e]") {
+TEST_CASE("AAL left hippocampus: real image to refined tets, refereed, exported",
+          "[pipeline][volume][e2e]") {
     const std::string dir = fixtures::temp_dir("run_volume_hippocampus");
     const std::string recipe = std::string(FRONTMESH_SOURCE_DIR) + "/examples/aal-hippocampus.yaml";
-    const auto r = run_frontmesh("run '" + recipe + "' --quiet --set output.dir=" + dir + "/out", dir);
+    const auto r =
+        run_frontmesh("run '" + recipe + "' --quiet --set output.dir=" + dir + "/out", dir);
     INFO(r.err);
     REQUIRE(r.exit_code == 0);
     const fs::path out = fs::path(dir) / "out";
@@ -152,17 +165,19 @@ TEST_CASE("AAL left hippocampus: real image to refined tets, refereed, exported"
     CHECK(check.quality.min_dihedral_deg > 10.0);
     CHECK(check.quality.skewness_over_08 <= mesh.tet_count() / 10000);  // at most 0.01%
     if (fs::exists(kReferee)) {
-        const auto [status, report] = referee(out / "mesh.vtu", out / "checkpoints/03-remesh.vtu", dir);
+        const auto [status, report] =
+            referee(out / "mesh.vtu", out / "checkpoints/03-remesh.vtu", dir);
         INFO(report);
         CHECK(status == 0);
     }
     // The region carries its atlas name (aal.nii.txt) into the exports; meshio reads them.
     CHECK_THAT(slurp(out / "mesh.inp"), Catch::Contains("Hippocampus_L"));
     CHECK_THAT(slurp(out / "mesh.msh"), Catch::Contains("Hippocampus_L"));
-    const std::string py = "/usr/bin/python3 -c \"import meshio, sys; "
-                           "print(*[len(meshio.read(f).cells_dict['tetra']) for f in sys.argv[1:]])\" '" +
-                           (out / "mesh.vtu").string() + "' '" + (out / "mesh.msh").string() + "' '" +
-                           (out / "mesh.inp").string() + "' > '" + dir + "/meshio.txt' 2>/dev/null";
+    const std::string py =
+        "/usr/bin/python3 -c \"import meshio, sys; "
+        "print(*[len(meshio.read(f).cells_dict['tetra']) for f in sys.argv[1:]])\" '" +
+        (out / "mesh.vtu").string() + "' '" + (out / "mesh.msh").string() + "' '" +
+        (out / "mesh.inp").string() + "' > '" + dir + "/meshio.txt' 2>/dev/null";
     CHECK(std::system(py.c_str()) == 0);
     const std::string n = std::to_string(mesh.tet_count());
     CHECK_THAT(slurp(fs::path(dir) / "meshio.txt"), Catch::Contains(n + " " + n + " " + n + "\n"));
@@ -197,10 +212,10 @@ TEST_CASE("a defective surface given to --from tetra is bad input, named, nothin
         core::SurfaceNetwork s = fixtures::uv_sphere(10.0, 12);
         c.spoil(s);
         io::write_surface_vtu(s, dir + "/" + c.name + ".vtu", {});
-        write_file(dir + "/" + c.name + ".yaml",
-                   std::string("input:\n  surface: ") + c.name + ".vtu\noutput:\n  dir: out-" +
-                       c.name + "\n");
-        const auto r = run_frontmesh(std::string("run ") + c.name + ".yaml --quiet --from tetra", dir);
+        write_file(dir + "/" + c.name + ".yaml", std::string("input:\n  surface: ") + c.name +
+                                                     ".vtu\noutput:\n  dir: out-" + c.name + "\n");
+        const auto r =
+            run_frontmesh(std::string("run ") + c.name + ".yaml --quiet --from tetra", dir);
         INFO(r.err);
         CHECK(r.exit_code == 2);
         CHECK_THAT(r.err, Catch::Contains(c.words) && Catch::Contains("mm") &&

@@ -16,7 +16,8 @@ using namespace frontmesh;
 namespace {
 
 double labelled_volume(const core::LabelImage& image, core::Label label) {
-    return double(std::count(image.labels.begin(), image.labels.end(), label)) * image.voxel_volume();
+    return double(std::count(image.labels.begin(), image.labels.end(), label)) *
+           image.voxel_volume();
 }
 
 // V - E + F of one region's boundary.
@@ -134,7 +135,8 @@ TEST_CASE(
     const int c = 20;
     for (int k = 0; k < 40; ++k)
         for (int j = c - 6; j <= c + 6; ++j)
-            if (k >= c + 10 && k <= c + 18 && image.at(c, j, k - 1) != 0) image.labels[image.index(c, j, k)] = 1;
+            if (k >= c + 10 && k <= c + 18 && image.at(c, j, k - 1) != 0)
+                image.labels[image.index(c, j, k)] = 1;
     const auto top_of = [](const core::SurfaceNetwork& s, core::Label l) {
         double top = -1e300;
         for (std::size_t f = 0; f < s.face_count(); ++f)
@@ -336,9 +338,10 @@ TEST_CASE("extract: AAL atlas: 116 regions closed and oriented, interfaces share
     std::string bad;
     for (const auto& c : checks)
         if (!(c.is_closed() && c.is_oriented() && c.nonmanifold_edges == 0))
-            bad += "region " + std::to_string(c.region) + ": open " + std::to_string(c.open_edges) + ", misoriented " +
-                   std::to_string(c.misoriented_edges) + ", non-manifold " + std::to_string(c.nonmanifold_edges) +
-                   ", volume " + std::to_string(c.volume) + "; ";
+            bad += "region " + std::to_string(c.region) + ": open " + std::to_string(c.open_edges) +
+                   ", misoriented " + std::to_string(c.misoriented_edges) + ", non-manifold " +
+                   std::to_string(c.nonmanifold_edges) + ", volume " + std::to_string(c.volume) +
+                   "; ";
     CHECK(bad == std::string());
     CHECK(ctx.warnings() == std::vector<std::string>());
     std::size_t interface_faces = 0;

@@ -14,7 +14,6 @@ using namespace frontmesh;
 
 namespace {
 
-
 core::SurfaceNetwork network_of(const core::LabelImage& image) {
     core::StageContext ctx;
     surface::ExtractParams params;

@@ -3,20 +3,20 @@
 #include <catch2/catch.hpp>
 
 #include <chrono>
-#include <fstream>
-#include <map>
-#include <set>
-#include <sstream>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <fstream>
+#include <map>
 #include <random>
+#include <set>
+#include <sstream>
 
+#include "io/mesh_io.h"
 #include "pipeline/core/error.h"
 #include "pipeline/core/quality.h"
 #include "pipeline/core/self_intersection.h"
 #include "pipeline/core/surface_network.h"
-#include "io/mesh_io.h"
 #include "surface/extract.h"
 #include "surface/front_internal.h"
 #include "surface/front_triangulate.h"
@@ -39,8 +39,8 @@ std::vector<std::int32_t> all_faces(const core::SurfaceNetwork& s) {
 double brute_distance(const core::SurfaceNetwork& s, const Eigen::Vector3d& p) {
     double best = 1e300;
     for (const auto& f : s.faces) {
-        const Eigen::Vector3d q = surface::closest_point_on_triangle(
-            p, s.point(f[0]), s.point(f[1]), s.point(f[2]));
+        const Eigen::Vector3d q =
+            surface::closest_point_on_triangle(p, s.point(f[0]), s.point(f[1]), s.point(f[2]));
         best = std::min(best, (q - p).norm());
     }
     return best;
@@ -50,11 +50,16 @@ double brute_distance(const core::SurfaceNetwork& s, const Eigen::Vector3d& p) {
 
 TEST_CASE("closest point on a triangle covers vertex, edge and face regions", "[front]") {
     const Eigen::Vector3d a(0, 0, 0), b(2, 0, 0), c(0, 2, 0);
-    CHECK((surface::closest_point_on_triangle({0.5, 0.5, 3}, a, b, c) - Eigen::Vector3d(0.5, 0.5, 0)).norm() < 1e-12);
+    CHECK(
+        (surface::closest_point_on_triangle({0.5, 0.5, 3}, a, b, c) - Eigen::Vector3d(0.5, 0.5, 0))
+            .norm() < 1e-12);
     CHECK((surface::closest_point_on_triangle({-1, -1, 1}, a, b, c) - a).norm() < 1e-12);
     CHECK((surface::closest_point_on_triangle({3, -1, 0}, a, b, c) - b).norm() < 1e-12);
-    CHECK((surface::closest_point_on_triangle({1, -1, 0}, a, b, c) - Eigen::Vector3d(1, 0, 0)).norm() < 1e-12);
-    CHECK((surface::closest_point_on_triangle({2, 2, 0}, a, b, c) - Eigen::Vector3d(1, 1, 0)).norm() < 1e-12);
+    CHECK((surface::closest_point_on_triangle({1, -1, 0}, a, b, c) - Eigen::Vector3d(1, 0, 0))
+              .norm() < 1e-12);
+    CHECK(
+        (surface::closest_point_on_triangle({2, 2, 0}, a, b, c) - Eigen::Vector3d(1, 1, 0)).norm() <
+        1e-12);
 }
 
 TEST_CASE("BackgroundPatch projection matches brute force", "[front]") {
@@ -110,7 +115,7 @@ struct MeshStats {
     double fraction_size = 0.0;  // edges within [0.7 h, 1.4 h]
     double max_distance = 0.0;   // vertices to the background
     long euler = 0;
-    bool closed = true;          // every directed edge has its reverse, once
+    bool closed = true;  // every directed edge has its reverse, once
     std::size_t boundary_edges = 0;
     std::size_t faces = 0;
 };
@@ -145,7 +150,8 @@ MeshStats stats(const surface::PatchMesh& m, const BackgroundPatch& bg, double h
         }
     }
     st.fraction_size = double(in_range) / double(std::max<std::size_t>(1, edges));
-    for (const auto& p : m.points) st.max_distance = std::max(st.max_distance, bg.project(p).distance);
+    for (const auto& p : m.points)
+        st.max_distance = std::max(st.max_distance, bg.project(p).distance);
     st.euler = long(m.points.size()) - long(edges) + long(m.faces.size());
     return st;
 }
@@ -215,7 +221,8 @@ TEST_CASE("front triangulation of a flat square keeps its loop", "[front]") {
     }
     double area = 0.0;
     for (const auto& f : m.faces) {
-        const Eigen::Vector3d nrm = (m.points[f[1]] - m.points[f[0]]).cross(m.points[f[2]] - m.points[f[0]]);
+        const Eigen::Vector3d nrm =
+            (m.points[f[1]] - m.points[f[0]]).cross(m.points[f[2]] - m.points[f[0]]);
         CHECK(nrm.z() > 0.0);
         area += 0.5 * nrm.norm();
     }
@@ -279,8 +286,8 @@ TEST_CASE("front triangulation closes a torus (genus 1)", "[front]") {
     const double R = 10.0, r = 4.0;
     const auto torus = grid_surface(160, 64, true, true, [&](double u, double v) {
         const double a = 2 * M_PI * u, b = 2 * M_PI * v;
-        return Eigen::Vector3d((R + r * std::cos(b)) * std::cos(a), (R + r * std::cos(b)) * std::sin(a),
-                               r * std::sin(b));
+        return Eigen::Vector3d((R + r * std::cos(b)) * std::cos(a),
+                               (R + r * std::cos(b)) * std::sin(a), r * std::sin(b));
     });
     const BackgroundPatch probe(torus, all_faces(torus), false);
     // Orient outward whatever the parametrisation gives.
@@ -318,7 +325,8 @@ TEST_CASE("front triangulation of the Colin27 brain", "[front][e2e][.]") {
     auto t1 = std::chrono::steady_clock::now();
     core::StageContext ctx(
         [](double f, const std::string& what) {
-            if (std::getenv("FRONTMESH_FRONT_VERBOSE")) std::fprintf(stderr, "%.3f %s\n", f, what.c_str());
+            if (std::getenv("FRONTMESH_FRONT_VERBOSE"))
+                std::fprintf(stderr, "%.3f %s\n", f, what.c_str());
         },
         {});
     // The remesh frame's size field (gap-limited, curvature-limited, graded).
@@ -360,7 +368,8 @@ TEST_CASE("front triangulation of the Colin27 brain", "[front][e2e][.]") {
     CHECK(si.empty());
 }
 
-TEST_CASE("front triangulation over marching-cubes backgrounds of a sphere and a torus", "[front]") {
+TEST_CASE("front triangulation over marching-cubes backgrounds of a sphere and a torus",
+          "[front]") {
     core::StageContext ctx;
     surface::ExtractParams ep;
     ep.blur_sigma_mm = 1.0;
@@ -488,7 +497,8 @@ TEST_CASE("front triangulation does not connect the two sheets of a thin gap", "
     for (const auto& f : m.faces)
         for (int k = 0; k < 3; ++k) {
             const auto &p = m.points[f[k]], &q = m.points[f[(k + 1) % 3]];
-            if (p.x() < flat - 0.5 && q.x() < flat - 0.5 && std::abs(p.z() - q.z()) > gap / 2) ++crossing;
+            if (p.x() < flat - 0.5 && q.x() < flat - 0.5 && std::abs(p.z() - q.z()) > gap / 2)
+                ++crossing;
         }
     CHECK(crossing == 0);
     CHECK(st.min_angle > 10.0);

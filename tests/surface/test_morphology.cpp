@@ -16,7 +16,8 @@ core::LabelImage empty_image(int n) {
     return image;
 }
 
-void fill(core::LabelImage& image, int i0, int i1, int j0, int j1, int k0, int k1, core::Label label) {
+void fill(core::LabelImage& image, int i0, int i1, int j0, int j1, int k0, int k1,
+          core::Label label) {
     for (int k = k0; k < k1; ++k)
         for (int j = j0; j < j1; ++j)
             for (int i = i0; i < i1; ++i) image.labels[image.index(i, j, k)] = label;
@@ -53,17 +54,17 @@ TEST_CASE("morphology: closing fills a narrow slit with the nearest label and ke
 
 TEST_CASE("morphology: opening removes thin sheets and spikes, keeps thick parts", "[extract]") {
     auto image = empty_image(30);
-    fill(image, 5, 15, 5, 15, 5, 15, 3);   // a thick block
-    fill(image, 15, 25, 8, 10, 5, 15, 3);  // a two-voxel-thick sheet sticking out
-    fill(image, 15, 25, 20, 23, 5, 15, 4); // a three-voxel-thick plate of another label
+    fill(image, 5, 15, 5, 15, 5, 15, 3);    // a thick block
+    fill(image, 15, 25, 8, 10, 5, 15, 3);   // a two-voxel-thick sheet sticking out
+    fill(image, 15, 25, 20, 23, 5, 15, 4);  // a three-voxel-thick plate of another label
     const auto before = image.labels;
     const std::size_t removed = surface::open_object(image, 1);
     CHECK(removed > 0);
     CHECK(image.at(20, 8, 10) == 0);  // the sheet is gone
     CHECK(image.at(20, 9, 10) == 0);
-    CHECK(image.at(20, 21, 10) == 4); // the plate keeps its middle layer and grows back
+    CHECK(image.at(20, 21, 10) == 4);  // the plate keeps its middle layer and grows back
     CHECK(image.at(20, 20, 10) == 4);
-    CHECK(image.at(10, 10, 10) == 3); // the block stays
+    CHECK(image.at(10, 10, 10) == 3);  // the block stays
     // Nothing changes label other than to 0, and nothing outside the object is added.
     for (std::size_t v = 0; v < before.size(); ++v)
         CHECK((image.labels[v] == before[v] || image.labels[v] == 0));

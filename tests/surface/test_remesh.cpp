@@ -4,8 +4,8 @@
 #include <set>
 #include <tuple>
 
-#include <catch2/catch.hpp>
 #include <tbb/global_control.h>
+#include <catch2/catch.hpp>
 
 #include "pipeline/core/error.h"
 #include "pipeline/core/label_image.h"
@@ -15,8 +15,8 @@
 #include "surface/front_triangulate.h"
 #include "surface/remesh.h"
 #include "surface/remesh_internal.h"
-#include "surface/size_field.h"
 #include "surface/repair.h"
+#include "surface/size_field.h"
 #include "tests/fixtures/phantoms.h"
 
 using namespace frontmesh;
@@ -31,7 +31,6 @@ core::SurfaceNetwork background_of(const core::LabelImage& image, surface::Extra
     params.blur_sigma_mm = blur;
     return surface::repair(surface::extract(image, params, ctx), {}, ctx);
 }
-
 
 // The acceptance checks of issue 3 that hold for any input.
 void check_remeshed(const core::SurfaceNetwork& bg, const surface::RemeshResult& r,
@@ -57,7 +56,6 @@ void check_remeshed(const core::SurfaceNetwork& bg, const surface::RemeshResult&
         worst = std::max(worst, whole.project(s.point(std::int32_t(v))).distance);
     CHECK(worst < 1e-9);
 }
-
 
 }  // namespace
 
@@ -97,9 +95,9 @@ TEST_CASE("remesh a marching-cubes ball: uniform, quality, on the background", "
     check_remeshed(bg, r, 0.01);
     const auto q = surface::surface_quality(r.surface);
     const double in_band = surface::edge_length_fraction(r.surface, 0.7 * 2.0, 1.4 * 2.0);
-    INFO("faces " << q.faces << ", min angle " << q.min_angle_deg << ", >=30: "
-                  << q.fraction_at_least_30_deg << ", mean eta " << q.mean_eta << ", band "
-                  << in_band);
+    INFO("faces " << q.faces << ", min angle " << q.min_angle_deg
+                  << ", >=30: " << q.fraction_at_least_30_deg << ", mean eta " << q.mean_eta
+                  << ", band " << in_band);
     CHECK(q.min_angle_deg >= 20.0);
     CHECK(q.fraction_at_least_30_deg >= 0.99);
     CHECK(q.mean_eta <= 0.05);
@@ -119,21 +117,23 @@ TEST_CASE("remesh the nested three-region phantom: shared interfaces", "[remesh]
     const auto r = surface::remesh(bg, params, ctx);
     check_remeshed(bg, r, 0.01);
     const auto q = surface::surface_quality(r.surface);
-    INFO("faces " << q.faces << ", min angle " << q.min_angle_deg << ", >=30: "
-                  << q.fraction_at_least_30_deg << ", mean eta " << q.mean_eta);
+    INFO("faces " << q.faces << ", min angle " << q.min_angle_deg
+                  << ", >=30: " << q.fraction_at_least_30_deg << ", mean eta " << q.mean_eta);
     CHECK(q.min_angle_deg >= 20.0);
     CHECK(q.fraction_at_least_30_deg >= 0.99);
     CHECK(q.mean_eta <= 0.05);
     // Interfaces stored once: the output has the background's three region pairs, each once.
     std::set<std::pair<core::Label, core::Label>> pairs_bg, pairs_out;
-    for (std::size_t f = 0; f < bg.face_count(); ++f) pairs_bg.insert({bg.region_in[f], bg.region_out[f]});
+    for (std::size_t f = 0; f < bg.face_count(); ++f)
+        pairs_bg.insert({bg.region_in[f], bg.region_out[f]});
     for (std::size_t f = 0; f < r.surface.face_count(); ++f)
         pairs_out.insert({r.surface.region_in[f], r.surface.region_out[f]});
     CHECK(pairs_out == pairs_bg);
 }
 
 TEST_CASE("remesh a split ball: the junction circle is kept and shared", "[remesh]") {
-    const auto bg = background_of(fixtures::split_ball_image(44, 16.0), surface::ExtractMethod::SurfaceNets);
+    const auto bg =
+        background_of(fixtures::split_ball_image(44, 16.0), surface::ExtractMethod::SurfaceNets);
     surface::RemeshParams params;
     params.edge_length = 2.0;
     core::StageContext ctx;
@@ -162,7 +162,8 @@ TEST_CASE("remesh a split ball: the junction circle is kept and shared", "[remes
 }
 
 TEST_CASE("remesh is deterministic and validates its parameters", "[remesh]") {
-    const auto bg = background_of(fixtures::split_ball_image(30, 10.0), surface::ExtractMethod::SurfaceNets);
+    const auto bg =
+        background_of(fixtures::split_ball_image(30, 10.0), surface::ExtractMethod::SurfaceNets);
     surface::RemeshParams params;
     params.edge_length = 2.0;
     core::StageContext c1, c2;

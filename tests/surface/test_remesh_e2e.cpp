@@ -14,8 +14,8 @@
 #include "pipeline/core/quality.h"
 #include "pipeline/core/self_intersection.h"
 #include "surface/extract.h"
-#include "surface/morphology.h"
 #include "surface/front_triangulate.h"
+#include "surface/morphology.h"
 #include "surface/remesh.h"
 #include "surface/repair.h"
 #include "tests/fixtures/phantoms.h"
@@ -38,8 +38,8 @@ void report_and_check(const std::string& what, const core::SurfaceNetwork& bg,
     const auto hd = surface::hausdorff_distance(s, bg);
     std::cout << what << ": h " << h << " mm, " << s.vertex_count() << " vertices, " << q.faces
               << " faces, remesh " << seconds << " s\n  min angle " << q.min_angle_deg
-              << " deg, below 20: " << 100 * q.fraction_below_20_deg << " %, >= 30: "
-              << 100 * q.fraction_at_least_30_deg << " %, mean eta " << q.mean_eta
+              << " deg, below 20: " << 100 * q.fraction_below_20_deg
+              << " %, >= 30: " << 100 * q.fraction_at_least_30_deg << " %, mean eta " << q.mean_eta
               << ", max eta " << q.max_eta << "\n  eta histogram (0.1 bins):";
     for (const auto c : q.eta_histogram) std::cout << " " << c;
     std::cout << "\n  edges in [0.7h, 1.4h]: "
@@ -66,11 +66,13 @@ void report_and_check(const std::string& what, const core::SurfaceNetwork& bg,
         double worst_angle = 180.0;
         for (std::size_t f = 0; f < s.face_count(); ++f) {
             const auto& t = s.faces[f];
-            const double a = core::triangle_min_angle_deg(s.point(t[0]), s.point(t[1]), s.point(t[2]));
+            const double a =
+                core::triangle_min_angle_deg(s.point(t[0]), s.point(t[1]), s.point(t[2]));
             if (a < worst_angle) worst_angle = a, worst_face = f;
         }
         const auto& t = s.faces[worst_face];
-        std::cout << "  worst face " << worst_face << " at " << ((s.point(t[0]) + s.point(t[1]) + s.point(t[2])) / 3.0).transpose()
+        std::cout << "  worst face " << worst_face << " at "
+                  << ((s.point(t[0]) + s.point(t[1]) + s.point(t[2])) / 3.0).transpose()
                   << ", min angle " << worst_angle << "\n";
     }
     std::cout << "  worst region volume change " << 100 * worst_volume << " %\n";
@@ -111,11 +113,11 @@ core::SurfaceNetwork background_from(const std::string& path, std::optional<doub
     return surface::repair(surface::extract(image, ep, ctx), rp, ctx);
 }
 
-
 // Remeshes `bg` with edge length h (0: the stage's default), prints and checks the
 // acceptance figures; FRONTMESH_REMESH_OUT=file.vtu keeps the result.
-surface::RemeshResult remesh_and_check(const std::string& what, const core::SurfaceNetwork& bg, double h,
-                                        double curvature_angle_deg = 0.0, double max_volume_change_percent = 0.0) {
+surface::RemeshResult remesh_and_check(const std::string& what, const core::SurfaceNetwork& bg,
+                                       double h, double curvature_angle_deg = 0.0,
+                                       double max_volume_change_percent = 0.0) {
     surface::RemeshParams params;
     params.edge_length = h;
     params.curvature_angle_deg = curvature_angle_deg;
@@ -123,8 +125,10 @@ surface::RemeshResult remesh_and_check(const std::string& what, const core::Surf
     core::StageContext ctx;
     const auto t0 = std::chrono::steady_clock::now();
     auto r = surface::remesh(bg, params, ctx);
-    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    if (const char* out = std::getenv("FRONTMESH_REMESH_OUT")) io::write_surface_vtu(r.surface, out, {});
+    const double seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    if (const char* out = std::getenv("FRONTMESH_REMESH_OUT"))
+        io::write_surface_vtu(r.surface, out, {});
     report_and_check(what, bg, r, seconds, ctx.counters().at("remesh.edge_length_mm"), ctx);
     return r;
 }
@@ -138,7 +142,8 @@ TEST_CASE("remesh the Colin27 brain at about 80k triangles", "[remesh][e2e][.]")
     if (!std::filesystem::exists(path)) FM_SKIP(path << " not found (mricron-data)");
     // As examples/colin27-brain.yaml: threshold 30, closing and opening of one voxel, 1.5 mm
     // blur (DESIGN-NOTES §2), specks under 30 mm^3 dropped, h = 1.55 mm.
-    const auto bg = background_from(path, 30.0, env_or("FRONTMESH_REMESH_BLUR", 1.5), core::Frame::Lps);
+    const auto bg =
+        background_from(path, 30.0, env_or("FRONTMESH_REMESH_BLUR", 1.5), core::Frame::Lps);
     const auto r = remesh_and_check("Colin27", bg, env_or("FRONTMESH_REMESH_H", 1.55));
     CHECK(r.surface.face_count() > 60000);
     CHECK(r.surface.face_count() < 100000);
@@ -149,7 +154,8 @@ TEST_CASE("remesh the AAL atlas: 116 regions, interfaces shared", "[remesh][e2e]
     if (!std::filesystem::exists(path)) FM_SKIP(path << " not found (mricron-data)");
     // As examples/aal-atlas.yaml: multi-label blur 1.5 mm, h = 1 mm, curvature 20 degrees,
     // regions losing more than 0.45% of their volume meshed again finer.
-    const auto bg = background_from(path, std::nullopt, env_or("FRONTMESH_REMESH_BLUR", 1.5), core::Frame::Ras);
+    const auto bg =
+        background_from(path, std::nullopt, env_or("FRONTMESH_REMESH_BLUR", 1.5), core::Frame::Ras);
     const auto r = remesh_and_check("AAL", bg, env_or("FRONTMESH_REMESH_AAL_H", 1.0),
                                     env_or("FRONTMESH_REMESH_CURVATURE", 20.0),
                                     env_or("FRONTMESH_REMESH_MAX_VOLUME", 0.45));

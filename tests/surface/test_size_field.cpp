@@ -14,7 +14,6 @@ using namespace frontmesh;
 
 namespace {
 
-
 // Sizes of the vertices on the slab's big faces at least `margin` from the rim.
 std::vector<double> middle_sizes(const core::SurfaceNetwork& s, const surface::SizeField& f,
                                  double a, double margin) {

@@ -34,12 +34,12 @@ double polyline_distance(const std::vector<Eigen::Vector3d>& pl, const Eigen::Ve
     double best = 1e300;
     for (std::size_t i = 0; i + 1 < pl.size(); ++i) {
         const Eigen::Vector3d d = pl[i + 1] - pl[i];
-        const double t = d.squaredNorm() > 0 ? std::clamp((p - pl[i]).dot(d) / d.squaredNorm(), 0.0, 1.0) : 0.0;
+        const double t =
+            d.squaredNorm() > 0 ? std::clamp((p - pl[i]).dot(d) / d.squaredNorm(), 0.0, 1.0) : 0.0;
         best = std::min(best, (pl[i] + t * d - p).norm());
     }
     return best;
 }
-
 
 }  // namespace
 
@@ -47,8 +47,8 @@ TEST_CASE("smoothing a marching-cubes ball raises its quality and stays on it", 
     core::StageContext ctx;
     surface::ExtractParams ep;
     ep.method = surface::ExtractMethod::FlyingEdges;
-    const auto background =
-        surface::repair(surface::extract(fixtures::sphere_image(40, 14.0, 1.0, 1), ep, ctx), {}, ctx);
+    const auto background = surface::repair(
+        surface::extract(fixtures::sphere_image(40, 14.0, 1.0, 1), ep, ctx), {}, ctx);
     std::vector<std::int32_t> all(background.face_count());
     for (std::size_t f = 0; f < all.size(); ++f) all[f] = std::int32_t(f);
     const surface::BackgroundPatch patch(background, all, false);
@@ -65,7 +65,8 @@ TEST_CASE("smoothing a marching-cubes ball raises its quality and stays on it", 
     CHECK(report.min_angle_before_deg == Approx(before));
     CHECK(report.min_angle_after_deg == Approx(min_angle(s)));
     INFO("min angle " << before << " -> " << min_angle(s) << ", eta " << eta_before << " -> "
-                      << mean_skewness(s) << ", moves " << report.moves << ", flips " << report.flips);
+                      << mean_skewness(s) << ", moves " << report.moves << ", flips "
+                      << report.flips);
     CHECK(min_angle(s) >= before);
     CHECK(mean_skewness(s) < 0.8 * eta_before);
     for (std::size_t v = 0; v < s.vertex_count(); ++v)
@@ -77,12 +78,14 @@ TEST_CASE("smoothing a marching-cubes ball raises its quality and stays on it", 
     CHECK(checks[0].nonmanifold_edges == 0);
 }
 
-TEST_CASE("smoothing a surface-nets network: curves slide on themselves, patches kept", "[remesh]") {
+TEST_CASE("smoothing a surface-nets network: curves slide on themselves, patches kept",
+          "[remesh]") {
     core::StageContext ctx;
     surface::ExtractParams ep;
     ep.method = surface::ExtractMethod::SurfaceNets;
     ep.smoothing_iterations = 0;  // a raw staircase: plenty to improve
-    const auto background = surface::repair(surface::extract(fixtures::split_ball_image(36, 12.0), ep, ctx), {}, ctx);
+    const auto background =
+        surface::repair(surface::extract(fixtures::split_ball_image(36, 12.0), ep, ctx), {}, ctx);
     const auto features = surface::find_features(background, 0.0, ctx);
     REQUIRE(features.curves.size() == 1);
 
@@ -115,7 +118,8 @@ TEST_CASE("smoothing a surface-nets network: curves slide on themselves, patches
     params.iterations = 8;
     const auto report = surface::smooth_surface(s, pointers, c, params, ctx);
     INFO("min angle " << before << " -> " << min_angle(s) << ", eta " << eta_before << " -> "
-                      << mean_skewness(s) << ", moves " << report.moves << ", flips " << report.flips);
+                      << mean_skewness(s) << ", moves " << report.moves << ", flips "
+                      << report.flips);
     CHECK(min_angle(s) >= before);
     CHECK(mean_skewness(s) < eta_before);
     CHECK(report.flips > 0);
@@ -135,7 +139,8 @@ TEST_CASE("smoothing a surface-nets network: curves slide on themselves, patches
         INFO("region " << check.region);
         CHECK(check.is_closed());
         CHECK(check.is_oriented());
-        CHECK(check.volume == Approx(core::enclosed_volume(background, check.region)).epsilon(0.01));
+        CHECK(check.volume ==
+              Approx(core::enclosed_volume(background, check.region)).epsilon(0.01));
     }
     CHECK(core::region_labels(s) == core::region_labels(background));
 }

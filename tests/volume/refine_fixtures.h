@@ -31,8 +31,8 @@ struct RegionSeed {
 /// tetgen fails or the surface vertices cannot be matched. With `reuse`, an existing tetgen
 /// result in `dir` is read instead of running tetgen again.
 inline core::TetMesh tetgen_mesh(const core::SurfaceNetwork& surface, const std::string& dir,
-                                 const std::string& flags, const std::vector<RegionSeed>& seeds = {},
-                                 bool reuse = false) {
+                                 const std::string& flags,
+                                 const std::vector<RegionSeed>& seeds = {}, bool reuse = false) {
     const std::string base = dir + "/input";
     const std::size_t n = surface.xyz.size() / 3;
     {
@@ -43,16 +43,18 @@ inline core::TetMesh tetgen_mesh(const core::SurfaceNetwork& surface, const std:
             out << v << ' ' << surface.xyz[3 * v] << ' ' << surface.xyz[3 * v + 1] << ' '
                 << surface.xyz[3 * v + 2] << '\n';
         out << surface.faces.size() << " 0\n";
-        for (const auto& f : surface.faces) out << "3 " << f[0] << ' ' << f[1] << ' ' << f[2] << '\n';
+        for (const auto& f : surface.faces)
+            out << "3 " << f[0] << ' ' << f[1] << ' ' << f[2] << '\n';
         out << "0\n" << seeds.size() << '\n';
         for (std::size_t k = 0; k < seeds.size(); ++k)
             out << k << ' ' << seeds[k].x << ' ' << seeds[k].y << ' ' << seeds[k].z << ' '
                 << seeds[k].label << '\n';
     }
     const bool have = reuse && std::ifstream(base + ".1.ele").good();
-    const std::string command = "cd '" + dir + "' && tetgen -" + flags + (seeds.empty() ? "" : "A") +
-                                " input.smesh > tetgen.log 2>&1";
-    if (!have && std::system(command.c_str()) != 0) throw std::runtime_error("tetgen failed: " + command);
+    const std::string command = "cd '" + dir + "' && tetgen -" + flags +
+                                (seeds.empty() ? "" : "A") + " input.smesh > tetgen.log 2>&1";
+    if (!have && std::system(command.c_str()) != 0)
+        throw std::runtime_error("tetgen failed: " + command);
 
     core::TetMesh mesh;
     // Whole files tokenised with strtod (comments '#' to end of line skipped).
@@ -90,7 +92,8 @@ inline core::TetMesh tetgen_mesh(const core::SurfaceNetwork& surface, const std:
         for (std::size_t d = 0; d < 3; ++d) {
             const double a = xyz[3 * v + d], b = surface.xyz[3 * v + d];
             if (std::abs(a - b) > 1e-9 * (1.0 + std::abs(b)))
-                throw std::runtime_error("tetgen node " + std::to_string(v) + " is not surface vertex");
+                throw std::runtime_error("tetgen node " + std::to_string(v) +
+                                         " is not surface vertex");
             xyz[3 * v + d] = b;  // exact input coordinates
         }
     }
@@ -124,13 +127,15 @@ inline core::TetMesh tetgen_mesh(const core::SurfaceNetwork& surface, const std:
 
 /// Two concentric UV spheres (radii r1 < r2): region 1 inside the inner one, region 2 between;
 /// the inner sphere is the interface (region_in 1, region_out 2).
-inline core::SurfaceNetwork nested_spheres(const core::SurfaceNetwork& inner, const core::SurfaceNetwork& outer) {
+inline core::SurfaceNetwork nested_spheres(const core::SurfaceNetwork& inner,
+                                           const core::SurfaceNetwork& outer) {
     core::SurfaceNetwork s = inner;
     const auto offset = static_cast<std::int32_t>(inner.xyz.size() / 3);
     for (auto& r : s.region_out) r = 2;
     s.xyz.insert(s.xyz.end(), outer.xyz.begin(), outer.xyz.end());
     for (std::size_t f = 0; f < outer.faces.size(); ++f) {
-        s.faces.push_back({outer.faces[f][0] + offset, outer.faces[f][1] + offset, outer.faces[f][2] + offset});
+        s.faces.push_back(
+            {outer.faces[f][0] + offset, outer.faces[f][1] + offset, outer.faces[f][2] + offset});
         s.region_in.push_back(2);
         s.region_out.push_back(0);
     }
@@ -157,7 +162,8 @@ inline core::TetMesh bipyramid() {
 
 /// The hull of `m`'s tets as faces (region_in 1, outside 0) and its nodes as surface nodes:
 /// hand-made configurations whose interior node is `interior` (the last node).
-inline void cone_from(core::TetMesh& m, const std::vector<std::array<std::int32_t, 3>>& hull, const Eigen::Vector3d& interior) {
+inline void cone_from(core::TetMesh& m, const std::vector<std::array<std::int32_t, 3>>& hull,
+                      const Eigen::Vector3d& interior) {
     const std::int32_t c = m.add_node(interior);
     for (const auto& f : hull) {
         // Hull faces are outward: the interior node is on the side opposite the normal.

@@ -7,20 +7,20 @@
 #include <numeric>
 #include <random>
 
-#include <catch2/catch.hpp>
 #include <tbb/global_control.h>
+#include <catch2/catch.hpp>
 
 #include "io/mesh_io.h"
 #include "pipeline/core/error.h"
 #include "pipeline/core/quality.h"
 #include "tests/fixtures/phantoms.h"
 #include "tests/fixtures/referee.h"
+#include "tests/fixtures/skip.h"
 #include "tests/volume/refine_fixtures.h"
 #include "volume/mesh_check.h"
 #include "volume/refine.h"
 #include "volume/refine_ops.h"
 #include "volume/tet_topology.h"
-#include "tests/fixtures/skip.h"
 
 using namespace frontmesh;
 using volume::Objective;
@@ -53,8 +53,8 @@ std::vector<Tet> canonical(const core::TetMesh& m) {
 double max_skewness(const core::TetMesh& m) { return volume::tet_quality(m).max_skewness; }
 
 bool same_surface(const core::TetMesh& a, const core::TetMesh& b) {
-    if (a.surface_vertices != b.surface_vertices || a.faces != b.faces || a.region_in != b.region_in ||
-        a.region_out != b.region_out)
+    if (a.surface_vertices != b.surface_vertices || a.faces != b.faces ||
+        a.region_in != b.region_in || a.region_out != b.region_out)
         return false;
     return std::equal(a.xyz.begin(), a.xyz.begin() + 3 * a.surface_vertices, b.xyz.begin());
 }
@@ -130,7 +130,8 @@ TEST_CASE("Node removal: a node inside a tetrahedron and inside a bipyramid", "[
         m.add_node({1, 0, 0});
         m.add_node({0, 1, 0});
         m.add_node({0, 0, 1});
-        refine_fixtures::cone_from(m, {{0, 2, 1}, {0, 1, 3}, {1, 2, 3}, {0, 3, 2}}, {0.2, 0.3, 0.25});
+        refine_fixtures::cone_from(m, {{0, 2, 1}, {0, 1, 3}, {1, 2, 3}, {0, 3, 2}},
+                                   {0.2, 0.3, 0.25});
         REQUIRE(m.tet_count() == 4);
         REQUIRE(volume::check_tet_mesh(m).valid());
         TetTopology topo(m);
@@ -189,11 +190,13 @@ TEST_CASE("Smoothing moves a displaced node back and never inverts", "[refine]")
     CHECK(after.valid());
     CHECK(after.quality.max_skewness <= before.quality.max_skewness);
     CHECK(after.quality.mean_skewness < before.quality.mean_skewness);
-    CHECK((out.point(v) - Eigen::Vector3d(1, 1, 1)).norm() < (m.point(v) - Eigen::Vector3d(1, 1, 1)).norm());
+    CHECK((out.point(v) - Eigen::Vector3d(1, 1, 1)).norm() <
+          (m.point(v) - Eigen::Vector3d(1, 1, 1)).norm());
     CHECK(same_surface(out, m));
 }
 
-TEST_CASE("Smoothing a jittered tetgen mesh keeps it valid and the worst tet no worse", "[refine]") {
+TEST_CASE("Smoothing a jittered tetgen mesh keeps it valid and the worst tet no worse",
+          "[refine]") {
     const std::string dir = fixtures::temp_dir("refine_smooth");
     core::TetMesh m = refine_fixtures::tetgen_mesh(fixtures::uv_sphere(10.0, 12), dir, "pYq1.3Q");
     REQUIRE(static_cast<std::int32_t>(m.node_count()) > m.surface_vertices + 20);
@@ -209,7 +212,8 @@ TEST_CASE("Smoothing a jittered tetgen mesh keeps it valid and the worst tet no 
             topo.set_point(v, p0 + Eigen::Vector3d(u(rng), u(rng), u(rng)));
             for (const std::int32_t t : star) {
                 const Tet& tt = topo.tet(t);
-                if (!volume::positive_tet(topo.xyz(tt[0]), topo.xyz(tt[1]), topo.xyz(tt[2]), topo.xyz(tt[3]))) {
+                if (!volume::positive_tet(topo.xyz(tt[0]), topo.xyz(tt[1]), topo.xyz(tt[2]),
+                                          topo.xyz(tt[3]))) {
                     topo.set_point(v, p0);
                     break;
                 }
@@ -234,10 +238,10 @@ TEST_CASE("Smoothing a jittered tetgen mesh keeps it valid and the worst tet no 
 
 TEST_CASE("Refine of a two-region tetgen mesh keeps surfaces and regions", "[refine]") {
     const std::string dir = fixtures::temp_dir("refine_two_regions");
-    const core::SurfaceNetwork s =
-        refine_fixtures::nested_spheres(fixtures::uv_sphere(6.0, 10), fixtures::uv_sphere(10.0, 14));
-    const core::TetMesh input = refine_fixtures::tetgen_mesh(
-        s, dir, "pYQ", {{0.0, 0.0, 0.0, 1}, {8.0, 0.0, 0.0, 2}});
+    const core::SurfaceNetwork s = refine_fixtures::nested_spheres(fixtures::uv_sphere(6.0, 10),
+                                                                   fixtures::uv_sphere(10.0, 14));
+    const core::TetMesh input =
+        refine_fixtures::tetgen_mesh(s, dir, "pYQ", {{0.0, 0.0, 0.0, 1}, {8.0, 0.0, 0.0, 2}});
     const auto before = volume::check_tet_mesh(input);
     INFO(before.summary());
     REQUIRE(before.valid());
@@ -256,7 +260,9 @@ TEST_CASE("Refine of a two-region tetgen mesh keeps surfaces and regions", "[ref
     for (const auto& [label, q] : before.region_quality)
         CHECK(after.region_quality.at(label).mean_skewness < q.mean_skewness);
     const auto& counters = ctx.counters();
-    CHECK(counters.at("refine.flips_2_3") + counters.at("refine.flips_3_2") + counters.at("refine.flips_n_m") > 0);
+    CHECK(counters.at("refine.flips_2_3") + counters.at("refine.flips_3_2") +
+              counters.at("refine.flips_n_m") >
+          0);
     CHECK(counters.at("refine.pass0.max_skewness") == Approx(before.quality.max_skewness));
     CHECK(counters.at("refine.pass3.max_skewness") <= counters.at("refine.pass1.max_skewness"));
     CHECK(counters.count("refine.final.min_dihedral") == 1);
@@ -264,7 +270,8 @@ TEST_CASE("Refine of a two-region tetgen mesh keeps surfaces and regions", "[ref
 
 TEST_CASE("Refine is deterministic for any thread count", "[refine]") {
     const std::string dir = fixtures::temp_dir("refine_determinism");
-    const core::TetMesh input = refine_fixtures::tetgen_mesh(fixtures::uv_sphere(10.0, 12), dir, "pYq1.3Q");
+    const core::TetMesh input =
+        refine_fixtures::tetgen_mesh(fixtures::uv_sphere(10.0, 12), dir, "pYq1.3Q");
     core::TetMesh one, many;
     {
         tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 1);
@@ -293,8 +300,8 @@ TEST_CASE("Refined tetgen sphere passes meshcheck with the surface preserved", "
         FM_SKIP("meshcheck.py not found (../shared/tools or FRONTMESH_MESHCHECK)");
     }
     const std::string command = "/usr/bin/python3 '" + fixtures::meshcheck_path() + "' '" + dir +
-                                "/refined.vtu' --surface '" + dir + "/surface.vtu' --strict-surface > '" +
-                                dir + "/meshcheck.log' 2>&1";
+                                "/refined.vtu' --surface '" + dir +
+                                "/surface.vtu' --strict-surface > '" + dir + "/meshcheck.log' 2>&1";
     CHECK(std::system(command.c_str()) == 0);
 }
 
@@ -384,12 +391,18 @@ namespace {
 // Here all faces of the ring's hull are walls.
 core::TetMesh aal_ring() {
     core::TetMesh m;
-    const std::int32_t n7 = m.add_node({42.634114328011378, -43.453635940825151, 37.33580305029605});
-    const std::int32_t n8 = m.add_node({43.438918479227183, -44.040870297462632, 37.370046175104555});
-    const std::int32_t n213 = m.add_node({43.208340770790166, -42.602898258382574, 38.023860972865279});
-    const std::int32_t n274 = m.add_node({43.775815590809522, -43.41069397537553, 37.984882628206464});
-    const std::int32_t n315 = m.add_node({43.264470652596493, -44.219414951438154, 38.416623794422804});
-    const std::int32_t n346 = m.add_node({42.099290221363347, -43.487969915474778, 38.265956381451481});
+    const std::int32_t n7 =
+        m.add_node({42.634114328011378, -43.453635940825151, 37.33580305029605});
+    const std::int32_t n8 =
+        m.add_node({43.438918479227183, -44.040870297462632, 37.370046175104555});
+    const std::int32_t n213 =
+        m.add_node({43.208340770790166, -42.602898258382574, 38.023860972865279});
+    const std::int32_t n274 =
+        m.add_node({43.775815590809522, -43.41069397537553, 37.984882628206464});
+    const std::int32_t n315 =
+        m.add_node({43.264470652596493, -44.219414951438154, 38.416623794422804});
+    const std::int32_t n346 =
+        m.add_node({42.099290221363347, -43.487969915474778, 38.265956381451481});
     m.surface_vertices = 6;
     for (Tet t : {Tet{n8, n7, n274, n213}, Tet{n346, n213, n274, n7}, Tet{n315, n7, n346, n274},
                   Tet{n315, n8, n7, n274}}) {
@@ -419,7 +432,8 @@ core::TetMesh aal_ring() {
 
 }  // namespace
 
-TEST_CASE("A sliver on a convex stretch of boundary is split even at the cost of caps", "[refine]") {
+TEST_CASE("A sliver on a convex stretch of boundary is split even at the cost of caps",
+          "[refine]") {
     const core::TetMesh input = aal_ring();
     const auto before = volume::check_tet_mesh(input);
     INFO(before.summary());

@@ -48,14 +48,16 @@ TEST_CASE("Stars and edge rings of a Kuhn cube match brute force", "[refine]") {
         const Tet& tt = topo.tet(t);
         for (int i = 0; i < 4; ++i)
             for (int j = i + 1; j < 4; ++j) {
-                const std::int32_t a = tt[static_cast<std::size_t>(i)], b = tt[static_cast<std::size_t>(j)];
+                const std::int32_t a = tt[static_cast<std::size_t>(i)],
+                                   b = tt[static_cast<std::size_t>(j)];
                 const bool interior_edge = a >= mesh.surface_vertices || b >= mesh.surface_vertices;
                 if (topo.edge_ring(a, b, t, ring_tets, ring)) {
                     ++closed_rings;
                     CHECK(static_cast<int>(ring.size()) == tets_holding(mesh, a, b));
                     for (std::size_t k = 0; k < ring.size(); ++k) {
                         const std::int32_t r0 = ring[k], r1 = ring[(k + 1) % ring.size()];
-                        CHECK(volume::positive_tet(topo.xyz(a), topo.xyz(b), topo.xyz(r0), topo.xyz(r1)));
+                        CHECK(volume::positive_tet(topo.xyz(a), topo.xyz(b), topo.xyz(r0),
+                                                   topo.xyz(r1)));
                         const Tet& rt = topo.tet(ring_tets[k]);
                         CHECK(volume::local_index(rt, r0) >= 0);
                         CHECK(volume::local_index(rt, r1) >= 0);
@@ -83,7 +85,8 @@ TEST_CASE("Interface faces are walls between regions", "[refine]") {
     for (std::int32_t t = 0; t < topo.tet_capacity(); ++t)
         for (int i = 0; i < 4; ++i) {
             const std::int32_t u = topo.neighbor(t, i);
-            if (u < 0) ++walls;
+            if (u < 0)
+                ++walls;
             else {
                 ++links;
                 CHECK(topo.region(u) == topo.region(t));
@@ -126,13 +129,16 @@ TEST_CASE("tet_shape agrees with core quality measures", "[refine]") {
     for (int k = 0; k < 2000; ++k) {
         Eigen::Vector3d p[4];
         for (auto& x : p) x = Eigen::Vector3d(u(rng), u(rng), u(rng));
-        if (k % 3 == 0) p[3] = 0.5 * (p[0] + p[1]) + 1e-3 * Eigen::Vector3d(u(rng), u(rng), u(rng));  // slivers
+        if (k % 3 == 0)
+            p[3] = 0.5 * (p[0] + p[1]) + 1e-3 * Eigen::Vector3d(u(rng), u(rng), u(rng));  // slivers
         const double volume = core::tet_signed_volume(p[0], p[1], p[2], p[3]);
         const double l = (p[1] - p[0]).norm() + (p[2] - p[0]).norm() + (p[3] - p[0]).norm();
         if (std::abs(volume) < 1e-5 * l * l * l) continue;  // the flat guard is tested below
-        const volume::TetShape s = volume::tet_shape(p[0].data(), p[1].data(), p[2].data(), p[3].data(), true);
+        const volume::TetShape s =
+            volume::tet_shape(p[0].data(), p[1].data(), p[2].data(), p[3].data(), true);
         CHECK(s.skewness == Approx(core::tet_skewness(p[0], p[1], p[2], p[3])).margin(1e-9));
-        CHECK(s.min_dihedral_deg == Approx(core::tet_min_dihedral_deg(p[0], p[1], p[2], p[3])).margin(1e-6));
+        CHECK(s.min_dihedral_deg ==
+              Approx(core::tet_min_dihedral_deg(p[0], p[1], p[2], p[3])).margin(1e-6));
     }
     // Four co-circular, coplanar-but-for-rounding nodes: degenerate, whatever Eq. 1 would say.
     const Eigen::Vector3d a(1, 0, 0), b(0, 1, 0), c(-1, 0, 0), d(0, -1, 1e-14);

@@ -40,7 +40,8 @@ core::SurfaceNetwork box_surface(std::array<int, 3> n,
         id[g] = v;
         return v;
     };
-    const Vector3d centre(0.5 * (coord(0, 0) + coord(0, n[0])), 0.5 * (coord(1, 0) + coord(1, n[1])),
+    const Vector3d centre(0.5 * (coord(0, 0) + coord(0, n[0])),
+                          0.5 * (coord(1, 0) + coord(1, n[1])),
                           0.5 * (coord(2, 0) + coord(2, n[2])));
     for (int axis = 0; axis < 3; ++axis) {
         const int a1 = (axis + 1) % 3, a2 = (axis + 2) % 3;
@@ -53,10 +54,12 @@ core::SurfaceNetwork box_surface(std::array<int, 3> n,
                         q[c][a1] = i + (c == 1 || c == 2);
                         q[c][a2] = j + (c >= 2);
                     }
-                    const std::int32_t v[4] = {vertex(q[0]), vertex(q[1]), vertex(q[2]), vertex(q[3])};
+                    const std::int32_t v[4] = {vertex(q[0]), vertex(q[1]), vertex(q[2]),
+                                               vertex(q[3])};
                     for (auto t : {std::array<int, 3>{0, 1, 2}, std::array<int, 3>{0, 2, 3}}) {
                         std::int32_t a = v[t[0]], b = v[t[1]], c = v[t[2]];
-                        const Vector3d nn = (s.point(b) - s.point(a)).cross(s.point(c) - s.point(a));
+                        const Vector3d nn =
+                            (s.point(b) - s.point(a)).cross(s.point(c) - s.point(a));
                         if (nn.dot(s.point(a) - centre) < 0) std::swap(b, c);
                         s.add_face(a, b, c, 1, 0);
                     }
@@ -100,7 +103,8 @@ core::SurfaceNetwork nested_spheres(double r_in, int n_in, double r_out, int n_o
     for (auto& l : s.region_out) l = 2;
     const core::SurfaceNetwork o = fixtures::uv_sphere(r_out, n_out);
     const std::int32_t off = static_cast<std::int32_t>(s.vertex_count());
-    for (std::size_t v = 0; v < o.vertex_count(); ++v) s.add_vertex(o.point(static_cast<std::int32_t>(v)));
+    for (std::size_t v = 0; v < o.vertex_count(); ++v)
+        s.add_vertex(o.point(static_cast<std::int32_t>(v)));
     for (const auto& f : o.faces) s.add_face(f[0] + off, f[1] + off, f[2] + off, 2, 0);
     return s;
 }
@@ -157,7 +161,8 @@ Key sorted_key(std::int32_t a, std::int32_t b, std::int32_t c) {
 /// tets of opposite sides), boundary = the input faces with the right regions on the right
 /// sides, volumes per region = enclosed volumes. Returns "" when valid.
 std::string validity_problem(const core::TetMesh& m, const core::SurfaceNetwork& s) {
-    if (m.surface_vertices != static_cast<std::int32_t>(s.vertex_count())) return "surface_vertices";
+    if (m.surface_vertices != static_cast<std::int32_t>(s.vertex_count()))
+        return "surface_vertices";
     for (std::size_t i = 0; i < s.xyz.size(); ++i)
         if (m.xyz[i] != s.xyz[i]) return "surface vertex moved";
     struct Side {
@@ -180,7 +185,8 @@ std::string validity_problem(const core::TetMesh& m, const core::SurfaceNetwork&
             Side& sd = faces[k];
             if (sd.count == 2) return "face in three tets";
             // cycle (a, b, c) equal to the cycle of (k0, k1, k2)?
-            const bool even = (a == k[0] && b == k[1]) || (b == k[0] && c == k[1]) || (c == k[0] && a == k[1]);
+            const bool even =
+                (a == k[0] && b == k[1]) || (b == k[0] && c == k[1]) || (c == k[0] && a == k[1]);
             sd.tet[sd.count] = static_cast<std::int32_t>(t);
             sd.outward_matches[sd.count] = even;
             ++sd.count;
@@ -193,7 +199,8 @@ std::string validity_problem(const core::TetMesh& m, const core::SurfaceNetwork&
     }
     for (const auto& [k, sd] : faces) {
         auto it = input.find(k);
-        if (sd.count == 2 && sd.outward_matches[0] == sd.outward_matches[1]) return "overlapping tets";
+        if (sd.count == 2 && sd.outward_matches[0] == sd.outward_matches[1])
+            return "overlapping tets";
         if (it == input.end()) {
             if (sd.count != 2) return "open face not in the input";
             if (m.region[sd.tet[0]] != m.region[sd.tet[1]]) return "region change off the surface";
@@ -215,7 +222,8 @@ std::string validity_problem(const core::TetMesh& m, const core::SurfaceNetwork&
         if (!faces.count(k)) return "input face missing";
     for (core::Label r : core::region_labels(s)) {
         const double want = core::enclosed_volume(s, r);
-        if (std::abs(volume[r] - want) > 1e-9 * std::abs(want)) return "volume of region " + std::to_string(r);
+        if (std::abs(volume[r] - want) > 1e-9 * std::abs(want))
+            return "volume of region " + std::to_string(r);
     }
     return "";
 }
@@ -233,7 +241,8 @@ Run mesh_it(const core::SurfaceNetwork& s, double alpha = 1.15) {
     Run r;
     r.mesh = volume::tetra(s, p, ctx);
     for (const auto& t : r.mesh.tets) {
-        const auto a = r.mesh.point(t[0]), b = r.mesh.point(t[1]), c = r.mesh.point(t[2]), d = r.mesh.point(t[3]);
+        const auto a = r.mesh.point(t[0]), b = r.mesh.point(t[1]), c = r.mesh.point(t[2]),
+                   d = r.mesh.point(t[3]);
         r.min_dihedral = std::min(r.min_dihedral, core::tet_min_dihedral_deg(a, b, c, d));
         const double e = core::tet_skewness(a, b, c, d);
         r.max_skew = std::max(r.max_skew, e);
@@ -243,7 +252,8 @@ Run mesh_it(const core::SurfaceNetwork& s, double alpha = 1.15) {
 }
 
 /// Runs meshcheck.py (strict surface preservation) on the result; true when it passes.
-bool meshcheck_passes(const core::TetMesh& m, const core::SurfaceNetwork& s, const std::string& name) {
+bool meshcheck_passes(const core::TetMesh& m, const core::SurfaceNetwork& s,
+                      const std::string& name) {
     const std::string dir = fixtures::temp_dir("tetra_" + name);
     io::write_tet_mesh_vtu(m, dir + "/mesh.vtu", {});
     io::write_surface_vtu(s, dir + "/surf.vtu", {});
@@ -253,8 +263,9 @@ bool meshcheck_passes(const core::TetMesh& m, const core::SurfaceNetwork& s, con
                   << std::endl;
         return true;
     }
-    const std::string cmd = "/usr/bin/python3 '" + fixtures::meshcheck_path() + "' " + dir + "/mesh.vtu --surface " +
-                            dir + "/surf.vtu --strict-surface > " + dir + "/meshcheck.txt 2>&1";
+    const std::string cmd = "/usr/bin/python3 '" + fixtures::meshcheck_path() + "' " + dir +
+                            "/mesh.vtu --surface " + dir + "/surf.vtu --strict-surface > " + dir +
+                            "/meshcheck.txt 2>&1";
     return std::system(cmd.c_str()) == 0;
 }
 
