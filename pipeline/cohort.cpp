@@ -21,6 +21,7 @@
 
 #include "io/atomic_file.h"
 #include "pipeline/core/error.h"
+#include "pipeline/output_dir.h"
 #include "pipeline/recipe.h"
 #include "pipeline/report.h"
 #include "pipeline/version.h"
@@ -675,7 +676,7 @@ CohortResult run_cohort(const std::string& manifest_path, const CohortOptions& o
     // 4. Run, `jobs` subjects at a time; rows stay in manifest order.
     const std::size_t total = manifest.subjects.size();
     result.subjects.resize(total);
-    fs::create_directories(result.root);
+    claim_output_dir(result.root);
     std::size_t next = 0, finished = 0;
     std::vector<Job> running;
     auto report = [&](const SubjectResult& r) {
@@ -714,12 +715,13 @@ CohortResult run_cohort(const std::string& manifest_path, const CohortOptions& o
         }
         const auto t0 = Clock::now();
         std::string error;
-        std::error_code ec;
-        fs::create_directories(r.dir, ec);
         pid_t pid = -1;
-        if (ec)
-            error = "cannot create '" + r.dir + "': " + ec.message();
-        else
+        try {
+            claim_output_dir(r.dir);  // before cohort-run.log: the run finds a frontmesh folder
+        } catch (const std::exception& e) {
+            error = "cannot create '" + r.dir + "': " + e.what();
+        }
+        if (error.empty())
             pid = spawn_subject(options.executable, args, fs::path(r.dir) / kRunLog, error);
         if (pid < 0) {
             r.status = SubjectStatus::Failed;

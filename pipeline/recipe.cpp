@@ -1,6 +1,10 @@
 #include "pipeline/recipe.h"
 
+#include <unistd.h>
+
 #include <algorithm>
+#include <cerrno>
+#include <cstring>
 #include <filesystem>
 #include <functional>
 #include <map>
@@ -14,6 +18,7 @@
 
 #include "io/export.h"
 #include "pipeline/core/error.h"
+#include "pipeline/output_dir.h"
 
 namespace frontmesh::pipeline {
 namespace {
@@ -242,6 +247,11 @@ void add_output_keys(std::vector<KeySpec>& specs) {
                      [](const YAML::Node& n, Recipe& r, const Where& w) {
                          r.output.quality_report = as_bool(n, w);
                      }});
+    specs.push_back({"output.allow_input_folder", "false", "", "",
+                     "let output.dir be the folder holding the input (or contain it)",
+                     [](const YAML::Node& n, Recipe& r, const Where& w) {
+                         r.output.allow_input_folder = as_bool(n, w);
+                     }});
 }
 
 // The stages' keys a table cannot set by itself.
@@ -323,11 +333,82 @@ std::string origin_of(const std::string& path, const YAML::Node& node) {
     return mark.line >= 0 ? path + ":" + std::to_string(mark.line + 1) : path;
 }
 
+// The recipe names a regular, readable file (a folder or a named pipe is refused by stat,
+// without opening it).
+void require_recipe_file(const std::string& path) {
+    std::error_code ec;
+    const fs::file_status status = fs::status(path, ec);
+    if (!fs::exists(status)) FM_THROW(InputError, "recipe '" + path + "' does not exist");
+    if (fs::is_directory(status))
+        FM_THROW(InputError, "recipe '" + path + "' is a folder; give the recipe's .yaml file");
+    if (!fs::is_regular_file(status))
+        FM_THROW(InputError, "recipe '" + path + "' is not a regular file");
+    if (access(path.c_str(), R_OK) != 0)
+        FM_THROW(InputError, "recipe '" + path + "' cannot be read: " + std::strerror(errno));
+}
+
+// yaml-cpp keeps every pair of a mapping, so a key given twice would silently take the
+// last value: refuse it, naming both lines.
+void reject_duplicate_keys(const YAML::Node& node, const std::string& path,
+                           const std::string& prefix) {
+    if (node.IsSequence())
+        for (const auto& item : node) reject_duplicate_keys(item, path, prefix);
+    if (!node.IsMap()) return;
+    std::map<std::string, int> lines;
+    for (const auto& entry : node) {
+        const std::string key = prefix + (entry.first.IsScalar() ? entry.first.Scalar() : "?");
+        const int line = entry.first.Mark().line + 1;
+        if (const auto [it, fresh] = lines.emplace(key, line); !fresh)
+            FM_THROW(InputError, origin_of(path, entry.first) + ": " + key +
+                                     ": given twice (first on line " + std::to_string(it->second) +
+                                     "); keep one");
+        reject_duplicate_keys(entry.second, path, key + ".");
+    }
+}
+
+// The recipe file's sections, key by key.
+void apply_sections(const YAML::Node& root, const std::string& path, Recipe& recipe) {
+    if (!root.IsMap()) return;
+    for (const auto& section : root) {
+        const std::string name = section.first.as<std::string>();
+        const std::string origin = origin_of(path, section.first);
+        if (!section.second.IsMap()) {
+            bool known = false;
+            for (const auto& spec : key_specs()) known |= spec.path.rfind(name + ".", 0) == 0;
+            if (!known) unknown_key(name, origin);
+            FM_THROW(InputError, origin + ": " + name + ": expected a section of keys, got " +
+                                     describe(section.second));
+        }
+        for (const auto& entry : section.second)
+            apply_key(name + "." + entry.first.as<std::string>(), entry.second, recipe,
+                      origin_of(path, entry.first));
+    }
+}
+
+// One --set key.path=value; it replaces what the file gave.
+void apply_override(const std::string& item, Recipe& recipe) {
+    const auto eq = item.find('=');
+    if (eq == std::string::npos || eq == 0)
+        FM_THROW(InputError, "--set " + item + ": expected key.path=value");
+    const std::string key = item.substr(0, eq);
+    YAML::Node value;
+    try {
+        value = YAML::Load(item.substr(eq + 1));
+    } catch (const YAML::Exception& e) {
+        FM_THROW(InputError, "--set " + key + ": cannot read the value: " + e.msg);
+    }
+    // Relative paths given on the command line are relative to the current folder.
+    if ((key == "input.image" || key == "input.surface" || key == "input.label_names") &&
+        value.IsScalar())
+        value = YAML::Node(fs::absolute(value.Scalar()).lexically_normal().string());
+    apply_key(key, value, recipe, "--set");
+}
+
 }  // namespace
 
 Recipe load_recipe(const std::string& path, const std::vector<std::string>& overrides) {
     Recipe recipe;
-    if (!fs::exists(path)) FM_THROW(InputError, "recipe '" + path + "' does not exist");
+    require_recipe_file(path);
     recipe.path = fs::absolute(path).lexically_normal().string();
     for (const auto& spec : key_specs())
         if (spec.default_yaml != "null")
@@ -342,45 +423,13 @@ Recipe load_recipe(const std::string& path, const std::vector<std::string>& over
     }
     if (!root.IsNull() && !root.IsMap())
         FM_THROW(InputError, path + ": the recipe must be a mapping of sections");
-    std::vector<std::string> seen;
-    if (root.IsMap()) {
-        for (const auto& section : root) {
-            const std::string name = section.first.as<std::string>();
-            const std::string origin = origin_of(path, section.first);
-            if (!section.second.IsMap()) {
-                bool known = false;
-                for (const auto& spec : key_specs()) known |= spec.path.rfind(name + ".", 0) == 0;
-                if (!known) unknown_key(name, origin);
-                FM_THROW(InputError, origin + ": " + name + ": expected a section of keys, got " +
-                                         describe(section.second));
-            }
-            for (const auto& entry : section.second) {
-                const std::string key = name + "." + entry.first.as<std::string>();
-                apply_key(key, entry.second, recipe, origin_of(path, entry.first));
-                seen.push_back(key);
-            }
-        }
-    }
-    for (const std::string& item : overrides) {
-        const auto eq = item.find('=');
-        if (eq == std::string::npos || eq == 0)
-            FM_THROW(InputError, "--set " + item + ": expected key.path=value");
-        const std::string key = item.substr(0, eq);
-        YAML::Node value;
-        try {
-            value = YAML::Load(item.substr(eq + 1));
-        } catch (const YAML::Exception& e) {
-            FM_THROW(InputError, "--set " + key + ": cannot read the value: " + e.msg);
-        }
-        // Relative paths given on the command line are relative to the current folder.
-        if ((key == "input.image" || key == "input.surface" || key == "input.label_names") &&
-            value.IsScalar())
-            value = YAML::Node(fs::absolute(value.Scalar()).lexically_normal().string());
-        apply_key(key, value, recipe, "--set");
-        seen.push_back(key);
-    }
+    reject_duplicate_keys(root, path, "");
+    apply_sections(root, path, recipe);
+    for (const std::string& item : overrides) apply_override(item, recipe);
 
     auto origin_for = [&](const std::string& key) {
+        for (const std::string& item : overrides)  // the value --set gave replaced the file's
+            if (item.rfind(key + "=", 0) == 0) return std::string("--set");
         if (root.IsMap()) {
             const auto dot = key.find('.');
             const YAML::Node section = root[key.substr(0, dot)];
@@ -389,7 +438,7 @@ Recipe load_recipe(const std::string& path, const std::vector<std::string>& over
                     if (entry.first.as<std::string>() == key.substr(dot + 1))
                         return origin_of(path, entry.first);
         }
-        return std::find(seen.begin(), seen.end(), key) != seen.end() ? std::string("--set") : path;
+        return path;
     };
     const InputSection& in = recipe.input;
     if (in.image.empty() == in.surface.empty())
@@ -407,6 +456,7 @@ Recipe load_recipe(const std::string& path, const std::vector<std::string>& over
         FM_THROW(InputError, origin_for("input.labels") +
                                  ": input.labels: with input.threshold the mask has the single "
                                  "label 1; use [1] or all");
+    check_output_dir(recipe, origin_for("output.dir"));
     recipe.extract.labels = in.labels;
     surface::validate(recipe.extract);
     surface::validate(recipe.repair);

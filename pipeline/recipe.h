@@ -31,6 +31,7 @@ struct OutputSection {
     core::Frame frame = core::Frame::Lps;
     std::vector<std::string> formats{"vtu"};  ///< exports of a tet mesh: mesh.EXT
     bool quality_report = true;               ///< report.html + SVG histograms after refine
+    bool allow_input_folder = false;          ///< dir may be (or contain) the input's folder
 };
 
 struct Recipe {
@@ -47,7 +48,9 @@ struct Recipe {
 /// Reads and validates `path`, then applies `overrides` ("key.path=value", YAML values).
 /// Relative input paths resolve against the recipe's folder, a relative output.dir against
 /// the current folder. Throws InputError with one line naming the file, line and key:
-/// unknown keys (with a did-you-mean), wrong types, out-of-range values, missing files.
+/// unknown keys (with a did-you-mean), keys given twice, wrong types, out-of-range values,
+/// missing files, a recipe that is not a readable file, an output.dir that may not be used
+/// (check_output_dir, pipeline/output_dir.h).
 Recipe load_recipe(const std::string& path, const std::vector<std::string>& overrides = {});
 
 /// One recipe key as declared: by its stage (e.g. volume::tetra_keys()) or, for input.* and

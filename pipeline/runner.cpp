@@ -24,6 +24,7 @@
 #include "pipeline/core/error.h"
 #include "pipeline/core/surface_check.h"
 #include "pipeline/diagnostics.h"
+#include "pipeline/output_dir.h"
 #include "pipeline/quality_report.h"
 #include "pipeline/report.h"
 #include "pipeline/version.h"
@@ -478,6 +479,7 @@ void Run::read_input() {
 
 void Run::prepare_folder() {
     if (folder_ready_) return;
+    claim_output_dir(out_.dir.string());
     fs::create_directories(out_.dir / "checkpoints");
     log_.open(out_.dir / "frontmesh.log");
     folder_ready_ = true;
@@ -706,6 +708,7 @@ const std::vector<std::string>& stage_names() {
 
 std::string run_recipe(const Recipe& recipe, const RunOptions& options) {
     std::optional<StopSignals> signals;
+    check_output_dir(recipe, recipe.path);  // load_recipe did, unless the caller built it
     if (options.cancel == nullptr) signals.emplace();
     return Run(recipe, options, options.cancel ? options.cancel : &stop_requested).execute();
 }

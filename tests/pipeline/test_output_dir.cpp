@@ -1,0 +1,162 @@
+// Bad output folders and recipe files: exit 2, one line naming the place, nothing written.
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <string>
+
+#include <catch2/catch.hpp>
+
+#include "tests/fixtures/phantoms.h"
+#include "tests/fixtures/skip.h"
+#include "tests/pipeline/cli_helpers.h"
+
+using namespace frontmesh;
+using frontmesh::testing::run_frontmesh;
+using frontmesh::testing::write_file;
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string phantom_dir(const std::string& name) {
+    const std::string dir = fixtures::temp_dir(name);
+    fixtures::write_metaimage(fixtures::sphere_image(8, 2.0), dir + "/ball.mha");
+    write_file(dir + "/recipe.yaml", "input:\n  image: ball.mha\noutput:\n  dir: out\n");
+    return dir;
+}
+
+std::size_t entries_below(const fs::path& dir) {
+    std::size_t n = 0;
+    for (auto it = fs::recursive_directory_iterator(dir); it != fs::recursive_directory_iterator();
+         ++it)
+        ++n;
+    return n;
+}
+
+// `frontmesh COMMAND recipe.yaml ARGS` fails with exit 2 and one line holding `needle`,
+// and the test folder gains nothing. Labels [9] are not in the image: a run that got past
+// the folder check would stop on them before writing anything.
+void expect_refused(const std::string& dir, const std::string& command, const std::string& args,
+                    const std::string& needle) {
+    const std::size_t before = entries_below(dir);
+    const auto r =
+        run_frontmesh(command + " recipe.yaml --quiet --set input.labels=[9] " + args, dir);
+    INFO(command << " " << args << "\n" << r.err);
+    CHECK(r.exit_code == 2);
+    CHECK_THAT(r.err, Catch::Contains(needle));
+    CHECK(std::count(r.err.begin(), r.err.end(), '\n') == 1);
+    CHECK(entries_below(dir) == before);
+}
+
+void expect_refused_both(const std::string& dir, const std::string& args,
+                         const std::string& needle) {
+    expect_refused(dir, "run", args, needle);
+    expect_refused(dir, "validate", args, needle);
+}
+
+}  // namespace
+
+TEST_CASE("an output.dir that cannot hold a run is refused before any work", "[pipeline]") {
+    const std::string dir = phantom_dir("outdir_bad");
+    write_file(dir + "/afile", "x");
+    SECTION("a file") {
+        expect_refused_both(dir, "--set output.dir=afile", "is a file, not a folder");
+    }
+    SECTION("under a file") {
+        expect_refused_both(dir, "--set output.dir=afile/out", "/afile' is a file");
+    }
+    SECTION("on a pseudo filesystem") {
+        expect_refused_both(dir, "--set output.dir=/proc/frontmesh-out", "pseudo filesystem /proc");
+        expect_refused_both(dir, "--set output.dir=/sys/x", "pseudo filesystem /sys");
+    }
+    SECTION("a name longer than NAME_MAX") {
+        expect_refused_both(dir, "--set output.dir=" + std::string(300, 'a'),
+                            "has a name of 300 characters");
+    }
+    SECTION("checkpoints is a file") {
+        fs::create_directories(dir + "/used");
+        write_file(dir + "/used/.frontmesh-output", "frontmesh\n");
+        write_file(dir + "/used/checkpoints", "x");
+        expect_refused_both(dir, "--set output.dir=used", "checkpoints' is a file, not a folder");
+    }
+}
+
+TEST_CASE("an output.dir below a folder it may not write is refused", "[pipeline]") {
+    if (getuid() == 0) FM_SKIP("root may write into any folder");
+    const std::string dir = phantom_dir("outdir_locked");
+    fs::create_directories(dir + "/locked");
+    fs::permissions(dir + "/locked", fs::perms::owner_read | fs::perms::owner_exec);
+    expect_refused_both(dir, "--set output.dir=locked/out", "is not writable");
+    fs::permissions(dir + "/locked", fs::perms::owner_all);
+}
+
+TEST_CASE("the root, system folders, home and the input's folder are refused", "[pipeline]") {
+    const std::string dir = phantom_dir("outdir_refused");
+    expect_refused_both(dir, "--set output.dir=/", "is the filesystem root");
+    for (const char* system : {"/etc", "/usr", "/root", "/bin", "/lib", "/var"})
+        expect_refused_both(dir, std::string("--set output.dir=") + system, "is a system folder");
+    expect_refused_both(dir, "--set output.dir=.", "holds the input '");
+    expect_refused_both(dir, "--set output.dir=..", "holds the input '");
+    // Allowed on request: validate accepts the folder holding the image.
+    const auto allowed = run_frontmesh(
+        "validate recipe.yaml --set output.dir=. --set output.allow_input_folder=true", dir);
+    INFO(allowed.err);
+    CHECK(allowed.exit_code == 0);
+}
+
+TEST_CASE("a non-empty folder frontmesh did not make is refused, its own reused", "[pipeline]") {
+    const std::string dir = phantom_dir("outdir_marker");
+    fs::create_directories(dir + "/foreign");
+    write_file(dir + "/foreign/thesis.tex", "mine");
+    expect_refused_both(dir, "--set output.dir=foreign", "is not a frontmesh output folder");
+    fs::create_directories(dir + "/empty");
+    CHECK(run_frontmesh("validate recipe.yaml --set output.dir=empty", dir).exit_code == 0);
+
+    const auto first = run_frontmesh("run recipe.yaml --quiet --until extract", dir);
+    INFO(first.err);
+    REQUIRE(first.exit_code == 0);
+    CHECK_THAT(testing::slurp(dir + "/out/.frontmesh-output"), Catch::StartsWith("frontmesh "));
+    CHECK(run_frontmesh("run recipe.yaml --quiet --until extract --force", dir).exit_code == 0);
+}
+
+TEST_CASE("a recipe with a key twice, or that is not a readable file, is bad input", "[pipeline]") {
+    const std::string dir = phantom_dir("outdir_recipe");
+    auto expect_bad = [&](const std::string& args, const std::string& needle) {
+        for (const char* command : {"run", "validate"}) {
+            const auto r = run_frontmesh(std::string(command) + " " + args + " --quiet", dir);
+            INFO(command << " " << args << "\n" << r.err);
+            CHECK(r.exit_code == 2);
+            CHECK_THAT(r.err, Catch::Contains(needle));
+            CHECK(std::count(r.err.begin(), r.err.end(), '\n') == 1);
+            CHECK_FALSE(fs::exists(dir + "/out"));
+        }
+    };
+    write_file(dir + "/twice.yaml", "input:\n  image: ball.mha\n  image: other.mha\n");
+    expect_bad("twice.yaml", "twice.yaml:3: input.image: given twice (first on line 2)");
+    write_file(dir + "/sections.yaml", "input:\n  image: ball.mha\ninput:\n  labels: all\n");
+    expect_bad("sections.yaml", "sections.yaml:3: input: given twice");
+    fs::create_directories(dir + "/folder.yaml");
+    expect_bad("folder.yaml", "folder.yaml' is a folder");
+    REQUIRE(mkfifo((dir + "/pipe.yaml").c_str(), 0600) == 0);
+    expect_bad("pipe.yaml", "pipe.yaml' is not a regular file");
+}
+
+TEST_CASE("cohort checks its output folder as run does", "[pipeline]") {
+    const std::string dir = phantom_dir("outdir_cohort");
+    write_file(dir + "/subjects.csv", "id,image\na,ball.mha\n");
+    fs::create_directories(dir + "/foreign");
+    write_file(dir + "/foreign/notes.txt", "mine");
+    for (const auto& [root, needle] :
+         {std::pair<std::string, std::string>{"/etc", "'/etc' is a system folder"},
+          {"foreign", "is not a frontmesh output folder"},
+          {"/proc/x", "pseudo filesystem /proc"}}) {
+        const std::size_t before = entries_below(dir);
+        const auto r = run_frontmesh(
+            "cohort subjects.csv --recipe recipe.yaml --quiet --set output.dir=" + root, dir);
+        INFO(r.err);
+        CHECK(r.exit_code == 2);
+        CHECK_THAT(r.err, Catch::Contains("output.dir") && Catch::Contains(needle));
+        CHECK(std::count(r.err.begin(), r.err.end(), '\n') == 1);
+        CHECK(entries_below(dir) == before);
+    }
+}
