@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <optional>
+#include <sstream>
 #include <string>
 
 #include "pipeline/core/error.h"
@@ -85,12 +86,18 @@ RegionChecks check_regions(const core::SurfaceNetwork& bg, const core::SurfaceNe
                 result.again = true;
                 break;
             }
+            // Name the defect: with every edge in order, the region encloses no volume
+            // (its faces collapsed or turned inward), which the edge counts do not show.
+            std::ostringstream volumes;
+            volumes << "; it encloses " << c.volume << " mm^3 (the background "
+                    << core::enclosed_volume(bg, c.region) << " mm^3)";
             FM_THROW(GeometryError,
                      "remesh: region " + std::to_string(c.region) + " has " +
                          std::to_string(c.open_edges) + " open, " +
                          std::to_string(c.misoriented_edges) + " misoriented, " +
                          std::to_string(c.nonmanifold_edges) +
                          " non-manifold edges after remeshing" +
+                         (bad.empty() && c.volume <= 0.0 ? volumes.str() : std::string()) +
                          bad_edge_place(out, et_of_out(), face_patch, c.region, bad));
         }
         const double before = core::enclosed_volume(bg, c.region);
