@@ -287,14 +287,8 @@ std::pair<V3, Score> best_position(const NodePlacement& placement,
         const Score s = placement.score(p);
         if (placement.better(s, best)) best = s, best_p = p;
     }
-    std::uint64_t state =
-        0x9E3779B97F4A7C15ull ^ static_cast<std::uint64_t>(t) * 0xBF58476D1CE4E5B9ull;
-    auto next = [&]() {
-        state ^= state >> 33;
-        state *= 0xff51afd7ed558ccdull;
-        state ^= state >> 33;
-        return static_cast<double>(state >> 11) / 9007199254740992.0 * 2.0 - 1.0;
-    };
+    OffsetSequence offsets(t);
+    auto next = [&]() { return offsets.next(); };
     for (const double step : {0.3, 0.15, 0.07, 0.03})
         for (int k = 0; k < 12; ++k) {
             const V3 d(next(), next(), next());

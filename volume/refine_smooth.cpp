@@ -218,14 +218,8 @@ bool RefineOps::move_node(std::int32_t v, const Tet& sliver, int i) {
     for (const double s : {1.0, 0.5, 0.25}) candidates.push_back(p0 + s * (target - p0));
     for (const double s : {0.4, 0.2, 0.1, 0.05}) candidates.push_back(p0 + s * h * n);
     // Fixed offsets (a deterministic function of v): a small random search.
-    std::uint64_t state =
-        0x9E3779B97F4A7C15ull ^ static_cast<std::uint64_t>(v) * 0xBF58476D1CE4E5B9ull;
-    auto next = [&]() {
-        state ^= state >> 33;
-        state *= 0xff51afd7ed558ccdull;
-        state ^= state >> 33;
-        return static_cast<double>(state >> 11) / 9007199254740992.0 * 2.0 - 1.0;
-    };
+    OffsetSequence offsets(v);
+    auto next = [&]() { return offsets.next(); };
     for (int k = 0; k < 12; ++k) {
         V3 d(next(), next(), next());
         if (d.norm() < 1e-6) continue;
