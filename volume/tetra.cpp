@@ -39,6 +39,8 @@ RegionResult RegionMesher::run() {
     // Closing phase for the cavities the layered front could not fill.
     const std::int64_t tets_before_closing = alive_tets_;
     const std::int64_t closing_rounds = close_cavities();
+    // Completion path for the cavities the closing rounds leave (volume/tetra_region.cpp).
+    const std::int64_t cones = front_.size() > 0 ? complete_cavities() : 0;
     if (front_.size() > 0) {
         diagnose_open_front();
         fail("the front cannot be closed");
@@ -46,16 +48,22 @@ RegionResult RegionMesher::run() {
     RegionResult res = result();
     res.closing_rounds = closing_rounds;
     res.closing_tets = alive_tets_ - tets_before_closing;
+    res.cones = cones;
     res.levels = levels;
     return res;
 }
 
-/// §3.1.3-3.1.5: level after level until the front is empty or stalls; the number of levels.
-/// Bounded by max_levels and by the stall test (a level that changes nothing ends the loop).
+/// §3.1.3-3.1.5: level after level until the front is empty or stops shrinking; the number of
+/// levels. The bound: a level either sets a new smallest front (a count of faces, which can
+/// fall at most F_0 times from the initial front's F_0 faces) or is one of at most
+/// kLevelsWithoutProgress in a row that do not, so there are at most
+/// (kLevelsWithoutProgress + 1) (F_0 + 1) levels. A level adding one tet and removing it
+/// again by local remeshing forever (a livelock) is thus ended and left to the closing phase.
 std::int32_t RegionMesher::mesh_levels() {
-    const std::int32_t max_levels = 100000;
-    std::int32_t levels = 0;
-    for (front_no_ = 0; front_.size() > 0 && front_no_ < max_levels; ++front_no_) {
+    constexpr std::int32_t kLevelsWithoutProgress = 16;
+    std::int32_t levels = 0, since_best = 0;
+    std::int64_t best = front_.size();
+    for (front_no_ = 0; front_.size() > 0 && since_best <= kLevelsWithoutProgress; ++front_no_) {
         sink_.check_cancelled();
         setup_level();  // §3.1.3
         const std::int64_t tets_before = static_cast<std::int64_t>(tv_.size());
@@ -69,6 +77,9 @@ std::int32_t RegionMesher::mesh_levels() {
                     std::to_string(remeshes_) + " remeshings");
         if (static_cast<std::int64_t>(tv_.size()) == tets_before && remeshes_ == remesh_before)
             break;  // stalled: nothing changed in a whole level
+        const std::int64_t size = front_.size();
+        since_best = size < best ? 0 : since_best + 1;
+        best = std::min(best, size);
     }
     ++front_no_;
     return levels;

@@ -69,6 +69,7 @@ struct RegionResult {
     std::int64_t remeshes = 0;
     std::int64_t closing_rounds = 0;
     std::int64_t closing_tets = 0;
+    std::int64_t cones = 0;  // cavities filled by the completion path
     std::int32_t levels = 0;
     std::int64_t stat[kStatCount] = {};
 };
@@ -278,7 +279,19 @@ private:
     std::int64_t close_cavities();
     void closing_round(std::int32_t rings);
     void remove_rings(std::int32_t rings);
+    void remove_rings_at(std::vector<std::int32_t> nodes, std::int32_t rings);
     void fill_relaxed();
+    // completion path
+    std::int64_t complete_cavities();
+    std::vector<std::vector<std::int32_t>> front_cavities() const;
+    bool fill_star(const std::vector<std::int32_t>& cavity);
+    std::vector<std::int32_t> front_cavity_of(std::int32_t g) const;
+    std::int32_t tet_behind(std::int32_t a, std::int32_t b, std::int32_t c) const;
+    bool grow_star(const std::vector<std::int32_t>& cavity, const V3& P,
+                   std::vector<std::int32_t>& grown, std::vector<Tri>& faces) const;
+    bool cone_from(const V3& P, const std::vector<std::int32_t>& grown,
+                   const std::vector<Tri>& faces);
+    Search relaxed_search(const Base& bk) const;
     // the end
     void diagnose_open_front() const;
     RegionResult result() const;

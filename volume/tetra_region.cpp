@@ -1,9 +1,14 @@
 #include "volume/tetra_mesher.h"
 
 #include <algorithm>
+#include <map>
+#include <set>
 #include <sstream>
 
 #include "pipeline/core/error.h"
+#include "pipeline/core/predicates.h"
+#include "pipeline/core/quality.h"
+#include "volume/cavity_kernel.h"
 
 // A region's run beyond the paper's steps: the closing phase for the cavities the layered
 // front leaves, what happens to a front left open (diagnostics, the error), the region's
@@ -62,6 +67,12 @@ void RegionMesher::remove_rings(std::int32_t rings) {
     for (std::int32_t f = 0; f < front_.id_bound(); ++f)
         if (front_.is_alive(f))
             nodes.insert(nodes.end(), front_.face(f).v.begin(), front_.face(f).v.end());
+    remove_rings_at(std::move(nodes), rings);
+}
+
+/// Removes `rings` rings of tets around `nodes`: the tets at them, then those at the nodes of
+/// these, and so on.
+void RegionMesher::remove_rings_at(std::vector<std::int32_t> nodes, std::int32_t rings) {
     std::vector<std::int32_t> tets;
     for (std::int32_t ring = 0; ring < rings; ++ring) {
         std::sort(nodes.begin(), nodes.end());
@@ -100,6 +111,279 @@ void RegionMesher::fill_relaxed() {
         }
         if (!progress) break;
     }
+}
+
+// ---- completion path (beyond the paper) -------------------------------------------------------
+//
+// What the closing rounds leave is a set of cavities, each bounded by a group of front faces
+// joined through edges (a 2-cycle: every edge is used as often in each direction). A cavity
+// that is star-shaped from a point P (P strictly on the inner side of every face) is filled
+// exactly by the cone of tets (face, P): the tets are all positive and, summed with signs,
+// cover each point as often as the faces wind around it, once inside the cavity and never
+// outside. A cavity that is not star-shaped from P is made so as Bowyer-Watson makes a
+// Delaunay cavity: while a face does not see P, the tet behind it joins the cavity. Each step
+// removes one tet of the region, so the growth ends; it fails only where a face that does not
+// see P has no tet behind it (the input surface, or another cavity) and then changes nothing.
+// Candidate points: the Chebyshev centre of the cavity's face planes (the kernel's centre,
+// volume/cavity_kernel.h, when the kernel is not empty), the mean of the face centres, and a
+// point over the largest face. Each cone tet still passes the exact validity test.
+
+/// At most this many completion rounds per region: a round tries every cavity once; a cavity
+/// that fails grows by a ring of tets before the next round. The count of rounds is the bound.
+constexpr std::int32_t kCompletionRounds = 4;
+
+/// The search of a relaxed try (as try_base sets it up) for base bk.
+RegionMesher::Search RegionMesher::relaxed_search(const Base& bk) const {
+    Search s;
+    s.relaxed = true;
+    s.small_front = false;
+    s.r1 = 1.1 * bk.h;
+    s.min_vol = 1e-6 * bk.area * std::sqrt(bk.area);
+    for (int i = 0; i < 3; ++i) s.base_box.extend(bk.A[i]);
+    return s;
+}
+
+/// Completion rounds until the front is empty, at most kCompletionRounds; the cavities filled.
+std::int64_t RegionMesher::complete_cavities() {
+    std::int64_t cones = 0;
+    for (std::int32_t round = 0; round < kCompletionRounds && front_.size() > 0; ++round) {
+        sink_.check_cancelled();
+        std::vector<std::int32_t> stuck;
+        for (const std::vector<std::int32_t>& cavity : front_cavities()) {
+            if (fill_star(cavity)) {
+                ++cones;
+                continue;
+            }
+            for (std::int32_t f : cavity)
+                stuck.insert(stuck.end(), front_.face(f).v.begin(), front_.face(f).v.end());
+        }
+        if (!stuck.empty()) remove_rings_at(std::move(stuck), 1);
+    }
+    return cones;
+}
+
+/// The front's faces in groups joined through shared edges, each group in increasing id
+/// order and the groups by their first face: each group bounds one cavity.
+std::vector<std::vector<std::int32_t>> RegionMesher::front_cavities() const {
+    struct EdgeUse {
+        std::int32_t lo, hi, f;
+        bool operator<(const EdgeUse& o) const {
+            return lo != o.lo ? lo < o.lo : hi != o.hi ? hi < o.hi : f < o.f;
+        }
+    };
+    std::vector<EdgeUse> uses;
+    std::vector<std::int32_t> parent(static_cast<std::size_t>(front_.id_bound()), -1);
+    for (std::int32_t f = 0; f < front_.id_bound(); ++f) {
+        if (!front_.is_alive(f)) continue;
+        parent[f] = f;
+        const Tri& t = front_.face(f).v;
+        for (int k = 0; k < 3; ++k)
+            uses.push_back({std::min(t[k], t[(k + 1) % 3]), std::max(t[k], t[(k + 1) % 3]), f});
+    }
+    std::sort(uses.begin(), uses.end());
+    auto root = [&](std::int32_t f) {
+        while (parent[f] != f) f = parent[f] = parent[parent[f]];
+        return f;
+    };
+    for (std::size_t i = 1; i < uses.size(); ++i) {
+        if (uses[i].lo != uses[i - 1].lo || uses[i].hi != uses[i - 1].hi) continue;
+        const std::int32_t a = root(uses[i].f), b = root(uses[i - 1].f);
+        if (a != b) parent[std::max(a, b)] = std::min(a, b);
+    }
+    std::vector<std::vector<std::int32_t>> groups;
+    std::vector<std::int32_t> group_of(parent.size(), -1);
+    for (std::int32_t f = 0; f < front_.id_bound(); ++f) {
+        if (parent[f] < 0) continue;
+        const std::int32_t r = root(f);
+        if (group_of[r] < 0) {
+            group_of[r] = static_cast<std::int32_t>(groups.size());
+            groups.emplace_back();
+        }
+        groups[group_of[r]].push_back(f);
+    }
+    return groups;
+}
+
+/// The front faces joined to front face g through shared edges (g's cavity), by a walk over
+/// the node->face lists; each face once.
+std::vector<std::int32_t> RegionMesher::front_cavity_of(std::int32_t g) const {
+    std::vector<std::int32_t> group{g}, seen{g};
+    for (std::size_t i = 0; i < group.size(); ++i) {
+        const Tri t = front_.face(group[i]).v;
+        for (int e = 0; e < 3; ++e) {
+            const std::int32_t a = t[e], b = t[(e + 1) % 3];
+            for (std::int32_t k = front_.first_corner(a); k >= 0; k = front_.next_corner(k)) {
+                const std::int32_t h = k / 3;
+                const Tri& th = front_.face(h).v;
+                if (th[0] != b && th[1] != b && th[2] != b) continue;
+                if (std::find(seen.begin(), seen.end(), h) != seen.end()) continue;
+                seen.push_back(h);
+                group.push_back(h);
+            }
+        }
+    }
+    return group;
+}
+
+/// The alive tet with the outward face (a, b, c) (in that cyclic order), -1 when none: the
+/// tet behind the front face (a, b, c).
+std::int32_t RegionMesher::tet_behind(std::int32_t a, std::int32_t b, std::int32_t c) const {
+    for (std::int32_t k = tet_head_[a]; k >= 0; k = tnext_[k]) {
+        const std::int32_t t = k / 4;
+        if (!talive_[t]) continue;
+        const Tet& v = tv_[t];
+        for (const auto& lf : kTetFace)
+            if (same_cycle({v[lf[0]], v[lf[1]], v[lf[2]]}, a, b, c)) return t;
+    }
+    return -1;
+}
+
+/// The tets to remove so that the cavity bounded by the front faces `cavity` becomes
+/// star-shaped from P, into `grown`, and the faces of the grown cavity; false when a face that does
+/// not see P has no tet behind it, or the growth passes max_grown tets. Nothing changes: the growth
+/// runs on a copy of the cavity's faces. Each face taken from the queue either sees P or adds the
+/// one tet behind it to `grown` (never twice: a tet's faces toward the cavity leave the boundary
+/// when it joins; a merged cavity's faces join once), so the loop ends after at most |front| + 4
+/// max_grown faces.
+bool RegionMesher::grow_star(const std::vector<std::int32_t>& cavity, const V3& P,
+                             std::vector<std::int32_t>& grown, std::vector<Tri>& faces) const {
+    struct Key {
+        std::int32_t a, b, c;
+        bool operator<(const Key& o) const {
+            return a != o.a ? a < o.a : b != o.b ? b < o.b : c < o.c;
+        }
+    };
+    auto key_of = [](Tri t) {
+        std::sort(t.begin(), t.end());
+        return Key{t[0], t[1], t[2]};
+    };
+    std::map<Key, Tri> boundary;  // the grown cavity's faces, normals into it
+    std::vector<Tri> queue;
+    for (std::int32_t f : cavity) {
+        boundary.emplace(key_of(front_.face(f).v), front_.face(f).v);
+        queue.push_back(front_.face(f).v);
+    }
+    std::set<std::int32_t> in_grown;
+    // a local repair: a growth beyond this many tets is given up (the cone would be a fan
+    // over much of the region)
+    const std::size_t max_grown = 16 * cavity.size() + 256;
+    grown.clear();
+    while (!queue.empty()) {
+        const Tri t = queue.back();
+        queue.pop_back();
+        const auto it = boundary.find(key_of(t));
+        if (it == boundary.end() || it->second != t) continue;  // left the boundary meanwhile
+        if (core::orient3d(p(t[0]), p(t[1]), p(t[2]), P.data()) == -1) continue;  // sees P
+        const std::int32_t tet = tet_behind(t[0], t[1], t[2]);
+        if (tet < 0 || !in_grown.insert(tet).second || in_grown.size() > max_grown) return false;
+        grown.push_back(tet);
+        const Tet& v = tv_[tet];
+        for (const auto& lf : kTetFace) {
+            const Tri inward{v[lf[0]], v[lf[2]], v[lf[1]]};  // into the removed tet
+            const Key k = key_of(inward);
+            const auto at = boundary.find(k);
+            if (at != boundary.end()) {
+                boundary.erase(at);  // the face between the cavity and the tet
+                continue;
+            }
+            const std::int32_t g = front_.find_face(inward[0], inward[1], inward[2]);
+            if (g >= 0) {
+                // another cavity's face, between it and the tet: the cavities merge, its other
+                // faces join the boundary (each cavity once: its faces are then on the boundary)
+                for (std::int32_t h : front_cavity_of(g)) {
+                    if (h == g) continue;
+                    boundary.emplace(key_of(front_.face(h).v), front_.face(h).v);
+                    queue.push_back(front_.face(h).v);
+                }
+                continue;
+            }
+            boundary.emplace(k, inward);
+            queue.push_back(inward);
+        }
+    }
+    faces.clear();
+    for (const auto& [k, t] : boundary) faces.push_back(t);
+    return true;
+}
+
+/// Fills the cavity bounded by the front faces `cavity` with a cone of tets from one point,
+/// after growing it to be star-shaped from that point; false (nothing changed but unused
+/// nodes) when no candidate point works.
+bool RegionMesher::fill_star(const std::vector<std::int32_t>& cavity) {
+    std::vector<CavityPlane> planes, fixed;
+    planes.reserve(cavity.size());
+    V3 centre = V3::Zero();
+    std::int32_t largest = cavity.front();
+    for (std::int32_t f : cavity) {
+        const Tri& t = front_.face(f).v;
+        const V3 n = front_.normal(f);
+        planes.push_back({n, n.dot(x(t[0]))});
+        // a face with no tet behind it is the input surface: the growth cannot pass it
+        if (tet_behind(t[0], t[1], t[2]) < 0) fixed.push_back(planes.back());
+        centre += (x(t[0]) + x(t[1]) + x(t[2])) / 3.0;
+        if (front_.face(f).area > front_.face(largest).area) largest = f;
+    }
+    centre /= static_cast<double>(cavity.size());
+    double radius = 0.0;
+    for (std::int32_t f : cavity)
+        for (std::int32_t v : front_.face(f).v) radius = std::max(radius, (x(v) - centre).norm());
+    if (!(radius > 0.0)) return false;
+    // candidates, best first: the kernel's centre of the faces the growth cannot pass, that of
+    // all faces, the centre, a point over the largest face
+    std::vector<V3> points;
+    if (!fixed.empty() && fixed.size() < planes.size()) {
+        const KernelCentre k = kernel_centre(fixed, centre, radius);
+        if (k.solved && k.t > 0.0) points.push_back(k.p);
+    }
+    const KernelCentre k = kernel_centre(planes, centre, 2.0 * radius);
+    if (k.solved) points.push_back(k.p);
+    points.push_back(centre);
+    {
+        const Tri& t = front_.face(largest).v;
+        points.push_back((x(t[0]) + x(t[1]) + x(t[2])) / 3.0 +
+                         0.5 * std::sqrt(front_.face(largest).area) * front_.normal(largest));
+    }
+    std::vector<std::int32_t> grown;
+    std::vector<Tri> faces;
+    for (const V3& P : points) {
+        if (!P.allFinite() || !grow_star(cavity, P, grown, faces)) continue;
+        if (cone_from(P, grown, faces)) return true;
+    }
+    return false;
+}
+
+/// Removes the tets `grown` and fills the cavity bounded by `faces` (which all see P) with
+/// the cone from P; on a failed cone tet everything is put back and false returned.
+bool RegionMesher::cone_from(const V3& P, const std::vector<std::int32_t>& grown,
+                             const std::vector<Tri>& faces) {
+    std::vector<Tet> removed;
+    for (std::int32_t t : grown) {
+        removed.push_back(tv_[t]);
+        new_faces_.clear();
+        remove_tet(t);
+    }
+    const std::size_t first_tet = tv_.size();
+    std::int32_t apex = -1;
+    bool ok = true;
+    for (const Tri& t : faces) {
+        const std::int32_t f = front_.find_face(t[0], t[1], t[2]);
+        ok = f >= 0 && same_cycle(front_.face(f).v, t[0], t[1], t[2]);
+        if (!ok) break;
+        const Base bk = make_base(f, false);
+        Search s = relaxed_search(bk);
+        s.min_vol = 0.0;  // the face sees P: the exact test decides
+        ok = apex < 0 ? try_new(bk, s, P) : try_existing(bk, s, apex);
+        if (!ok) break;
+        if (apex < 0) apex = node_count() - 1;
+    }
+    if (ok) return true;
+    for (std::size_t t = first_tet; t < tv_.size(); ++t) {
+        if (!talive_[t]) continue;
+        new_faces_.clear();
+        remove_tet(static_cast<std::int32_t>(t));
+    }
+    for (const Tet& v : removed) add_tet(v[0], v[1], v[2], v[3]);
+    return false;
 }
 
 // ---- the end --------------------------------------------------------------------------------
@@ -168,7 +452,7 @@ core::TetMesh merge_regions(const core::SurfaceNetwork& surface,
     mesh.region_in = surface.region_in;
     mesh.region_out = surface.region_out;
     mesh.surface_vertices = static_cast<std::int32_t>(nv);
-    std::int64_t remeshes = 0, closing_rounds = 0, closing_tets = 0, levels = 0;
+    std::int64_t remeshes = 0, closing_rounds = 0, closing_tets = 0, cones = 0, levels = 0;
     std::int64_t stat[kStatCount] = {};
     for (const RegionResult& res : results) {
         const std::int32_t nl = static_cast<std::int32_t>(res.level.size());
@@ -190,6 +474,7 @@ core::TetMesh merge_regions(const core::SurfaceNetwork& surface,
         remeshes += res.remeshes;
         closing_rounds += res.closing_rounds;
         closing_tets += res.closing_tets;
+        cones += res.cones;
         levels = std::max<std::int64_t>(levels, res.levels);
         for (int i = 0; i < kStatCount; ++i) stat[i] += res.stat[i];
     }
@@ -201,6 +486,7 @@ core::TetMesh merge_regions(const core::SurfaceNetwork& surface,
     ctx.count("tetra.remeshings", static_cast<double>(remeshes));
     ctx.count("tetra.closing_rounds", static_cast<double>(closing_rounds));
     ctx.count("tetra.closing_tets", static_cast<double>(closing_tets));
+    ctx.count("tetra.completion_cones", static_cast<double>(cones));
     ctx.count("tetra.max_levels", static_cast<double>(levels));
     ctx.info("tetra: " + std::to_string(mesh.tet_count()) + " tets, " +
              std::to_string(mesh.node_count()) + " nodes, " + std::to_string(results.size()) +
