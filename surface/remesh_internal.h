@@ -52,7 +52,9 @@ std::string point_text(const Eigen::Vector3d& p);
 ///   crossed after smoothing (r = 2 h at each face), h = field at the place.
 /// - volume_scale(f): per background face, multiplied by clamp(0.9 sqrt(limit / change),
 ///   0.5, 0.9) on the patches of a region whose enclosed volume changed by more than
-///   remesh.max_volume_change_percent (chords lose volume as h^2); volume_scale(v) is the
+///   remesh.max_volume_change_percent (chords lose volume as h^2), and by 1/2 on the
+///   patches of a region that encloses no volume though every edge is in order (a region
+///   thinner than h whose patches closed on the same curve points); volume_scale(v) is the
 ///   smallest scale of the faces at v, updated when a region is refined.
 /// - within one round, triangulate_patch scales a patch by 0.85 per failed attempt
 ///   (FrontParams::attempts) on top.
@@ -100,6 +102,10 @@ public:
     /// 0.9). The vertex scales follow at update_vertex_scales().
     void on_volume_change(const Features& features, core::Label region, double change_percent,
                           double limit_percent);
+    /// The region has every edge in order but encloses no volume (its patches closed on the
+    /// same few curve points): the volume scale of its patches' faces halves, and the vertex
+    /// scales follow at once.
+    void on_collapsed_region(const Features& features, core::Label region);
     /// volume_scale(v) = min over the faces at v (after on_volume_change).
     void update_vertex_scales();
 

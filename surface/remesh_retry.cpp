@@ -109,6 +109,16 @@ void RetryPolicy::on_volume_change(const Features& features, core::Label region,
     }
 }
 
+void RetryPolicy::on_collapsed_region(const Features& features, core::Label region) {
+    for (std::size_t p = 0; p < features.patches.size(); ++p) {
+        const Patch& patch = features.patches[p];
+        if (patch.region_in != region && patch.region_out != region) continue;
+        rescaled_[p] = 1;
+        for (const std::int32_t f : patch.faces) face_scale_[std::size_t(f)] *= 0.5;
+    }
+    update_vertex_scales();
+}
+
 void RetryPolicy::update_vertex_scales() {
     for (std::size_t f = 0; f < background_.face_count(); ++f)
         for (const std::int32_t v : background_.faces[f])
