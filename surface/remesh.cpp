@@ -179,7 +179,7 @@ bool handle_stalls(const std::vector<std::optional<FrontStall>>& stalls, int rou
         if (!stalls[p]) continue;
         if (++stalled <= 4) places.append(" ").append(point_text(stalls[p]->place()));
         if (round + 1 >= RetryPolicy::kRounds) throw *stalls[p];
-        retry.on_stall(p, stalls[p]->place());
+        retry.on_stall(p, stalls[p]->place(), round);
     }
     if (stalled == 0) return false;
     ctx.warn("remesh: the front stalled in " + std::to_string(stalled) + " patch(es) (near" +

@@ -58,8 +58,8 @@ std::string point_text(const Eigen::Vector3d& p);
 ///   smallest scale of the faces at v, updated when a region is refined.
 /// - within one round, triangulate_patch scales a patch by 0.85 per failed attempt
 ///   (FrontParams::attempts) on top.
-/// A patch whose front stalls twice, or whose faces cross in three rounds, keeps its
-/// background triangles from then on (copy()).
+/// A patch whose front stalls twice (or once in the second-to-last round), or whose faces
+/// cross in three rounds, keeps its background triangles from then on (copy()).
 class RetryPolicy {
 public:
     /// Rounds at most: the last one reports what still fails instead of retrying.
@@ -86,9 +86,10 @@ public:
     /// The sizes of this round are in use: has_new_sizes() compares with them from now on.
     void mark_sizes_used();
 
-    /// The front of patch p stalled at `place`: a shrink site there, or, at its second stall,
-    /// the patch keeps its background triangles.
-    void on_stall(std::size_t p, const Eigen::Vector3d& place);
+    /// The front of patch p stalled at `place` in round `round` (0-based): a shrink site
+    /// there, or, at its second stall or from the second-to-last round on, the patch keeps
+    /// its background triangles.
+    void on_stall(std::size_t p, const Eigen::Vector3d& place, int round);
     /// Edges of a region that is not a closed 2-manifold (two patches joined the same two
     /// curve points by an inner edge): a shrink site at each midpoint.
     void on_open_edges(const std::vector<Eigen::Vector3d>& midpoints);

@@ -66,8 +66,10 @@ void RetryPolicy::add_shrink_site(const Eigen::Vector3d& centre, double radius_i
     shrink_sites_.emplace_back(centre, radius_in_h * field_.at(centre, -1));
 }
 
-void RetryPolicy::on_stall(std::size_t p, const Eigen::Vector3d& place) {
-    if (++patch_stalls_[p] >= 2) {
+void RetryPolicy::on_stall(std::size_t p, const Eigen::Vector3d& place, int round) {
+    // From the second-to-last round on, a finer size has no round left to prove itself: the
+    // patch keeps its background triangles at once, so the last round cannot stall there.
+    if (++patch_stalls_[p] >= 2 || round + 2 >= kRounds) {
         copy_patch_[p] = 1;
         return;
     }
