@@ -150,7 +150,7 @@ bool mend_self_intersections(core::SurfaceNetwork& out, const std::vector<double
         // the closer they follow the background, which does not intersect. A patch whose
         // faces still cross after two rounds of finer sizes (two sheets meeting in a cusp
         // along a curve) keeps its background triangles instead.
-        retry.on_crossings(pairs, out, face_patch);
+        retry.on_crossings(pairs, out, face_patch, round);
         ctx.warn(
             "remesh: " + std::to_string(pairs.size()) +
             " pairs of faces intersect after smoothing; meshing again with half the size there");

@@ -58,8 +58,9 @@ std::string point_text(const Eigen::Vector3d& p);
 ///   smallest scale of the faces at v, updated when a region is refined.
 /// - within one round, triangulate_patch scales a patch by 0.85 per failed attempt
 ///   (FrontParams::attempts) on top.
-/// A patch whose front stalls twice (or once in the second-to-last round), or whose faces
-/// cross in three rounds, keeps its background triangles from then on (copy()).
+/// A patch whose front stalls twice, or whose faces cross in three rounds, or that does
+/// either in the second-to-last round or later, keeps its background triangles from then on
+/// (copy()): the last round then changes no size, so it meets no new stall.
 class RetryPolicy {
 public:
     /// Rounds at most: the last one reports what still fails instead of retrying.
@@ -95,9 +96,11 @@ public:
     void on_open_edges(const std::vector<Eigen::Vector3d>& midpoints);
     /// Faces f, g of each pair intersect after smoothing (`face_patch` of the output):
     /// patches crossed in a third round keep their background triangles, the other faces
-    /// get a shrink site at their centroid.
+    /// get a shrink site at their centroid. From the second-to-last round (`round`, 0-based)
+    /// on, every crossed patch keeps its background triangles.
     void on_crossings(const std::vector<std::pair<std::int32_t, std::int32_t>>& pairs,
-                      const core::SurfaceNetwork& out, const std::vector<std::int32_t>& face_patch);
+                      const core::SurfaceNetwork& out, const std::vector<std::int32_t>& face_patch,
+                      int round);
     /// The region's enclosed volume changed by `change_percent` (> `limit_percent`): the
     /// volume scale of its patches' faces drops by clamp(0.9 sqrt(limit / |change|), 0.5,
     /// 0.9). The vertex scales follow at update_vertex_scales().

@@ -82,12 +82,15 @@ void RetryPolicy::on_open_edges(const std::vector<Eigen::Vector3d>& midpoints) {
 
 void RetryPolicy::on_crossings(const std::vector<std::pair<std::int32_t, std::int32_t>>& pairs,
                                const core::SurfaceNetwork& out,
-                               const std::vector<std::int32_t>& face_patch) {
+                               const std::vector<std::int32_t>& face_patch, int round) {
     std::set<std::int32_t> crossed;
     for (const auto& [f, g] : pairs)
         for (const std::int32_t face : {f, g}) crossed.insert(face_patch[std::size_t(face)]);
+    // As for stalls: from the second-to-last round on, finer sizes would be tried in the last
+    // round, where a stall they cause is the error; the crossed patches are copied instead.
     for (const std::int32_t q : crossed)
-        if (++patch_crossings_[std::size_t(q)] >= 3) copy_patch_[std::size_t(q)] = 1;
+        if (++patch_crossings_[std::size_t(q)] >= 3 || round + 2 >= kRounds)
+            copy_patch_[std::size_t(q)] = 1;
     for (const auto& [f, g] : pairs)
         for (const std::int32_t face : {f, g}) {
             if (copy_patch_[std::size_t(face_patch[std::size_t(face)])]) continue;

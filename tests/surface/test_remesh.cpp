@@ -229,6 +229,9 @@ TEST_CASE("the retry policy owns every size multiplier of the rounds", "[remesh]
     surface::remesh_detail::RetryPolicy late(bg, field, 1);
     late.on_stall(0, place, surface::remesh_detail::RetryPolicy::kRounds - 2);
     CHECK(late.copy(0));
+    surface::remesh_detail::RetryPolicy crossed(bg, field, 1);
+    crossed.on_crossings({{0, 1}}, bg, {0, 0}, surface::remesh_detail::RetryPolicy::kRounds - 2);
+    CHECK(crossed.copy(0));
 
     // A region that lost 20% of its volume against a 10% limit: x 0.9 sqrt(1/2); a change
     // of 80% would ask for less than the floor of 0.5.
