@@ -282,6 +282,10 @@ private:
     bool is_valid(std::int32_t a, std::int32_t b, std::int32_t c, const Eigen::Vector3d& xc,
                   const Eigen::Vector3d& nc, const Frame& fr, double min_cos, double corner_cos);
     bool crosses_mesh(std::int32_t a, std::int32_t b, std::int32_t c, const Eigen::Vector3d& xc);
+    // Whether the triangle (xa, xb, xc) lies over its own patch: the background under its
+    // centroid (projected from `hint`) faces the triangle's way.
+    bool covers_background(const Eigen::Vector3d& xa, const Eigen::Vector3d& xb,
+                           const Eigen::Vector3d& xc, std::int32_t hint) const;
     bool sector_ok_at_a(std::int32_t a, std::int32_t b, std::int32_t c, const P2& pc,
                         const Frame& fr) const;
     bool sector_ok_at_b(std::int32_t a, std::int32_t b, std::int32_t c, const P2& pc,

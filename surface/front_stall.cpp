@@ -90,8 +90,14 @@ bool FrontMesher::close_small_loop(std::int32_t e, double min_angle_deg) {
         todo.push_back({i, k});
         todo.push_back({k, j});
     }
-    for (const auto& t : made)
-        if (crosses_mesh(t[0], t[1], t[2], xyz_[static_cast<std::size_t>(t[2])])) return false;
+    for (const auto& t : made) {
+        const Eigen::Vector3d& x0 = xyz_[static_cast<std::size_t>(t[0])];
+        const Eigen::Vector3d& x1 = xyz_[static_cast<std::size_t>(t[1])];
+        const Eigen::Vector3d& x2 = xyz_[static_cast<std::size_t>(t[2])];
+        if (!covers_background(x0, x1, x2, face_[static_cast<std::size_t>(t[0])]) ||
+            crosses_mesh(t[0], t[1], t[2], x2))
+            return false;
+    }
     for (const auto& t : made) add_triangle(t[0], t[1], t[2]);
     ++closed_loops_;
     return true;

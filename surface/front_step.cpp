@@ -182,6 +182,21 @@ bool FrontMesher::crosses_mesh(std::int32_t a, std::int32_t b, std::int32_t c,
     return false;
 }
 
+// A triangle whose corners lie on the patch may still span a hole of it: over the open end
+// of a region thinner than the triangle (a box whose end is another patch), corners on two
+// opposite sides close onto each other across the end, and the corner normals, tilted by the
+// faces around a sharp end, do not tell. The background under the centroid does: there the
+// patch runs across the triangle (normal about 90 degrees away), while over a ridge or fold
+// that the front may cross it turns by at most 75 degrees for a ridge of 150 degrees.
+bool FrontMesher::covers_background(const Eigen::Vector3d& xa, const Eigen::Vector3d& xb,
+                                    const Eigen::Vector3d& xc, std::int32_t hint) const {
+    const Eigen::Vector3d t = (xb - xa).cross(xc - xa);
+    const double tl = t.norm();
+    if (!(tl > 0.0)) return false;
+    const BackgroundPatch::Projection pr = patch_.project((xa + xb + xc) / 3.0, hint);
+    return t.dot(patch_.smooth_normal(pr.face)) > 0.2 * tl;
+}
+
 // The 2-D analogue of the §3.1.4 tests for triangle (a, b, c), c at xc with background
 // normal nc (c = -1 for a new point). Uses near_points_/near_edges_ from gather().
 bool FrontMesher::is_valid(std::int32_t a, std::int32_t b, std::int32_t c,
@@ -351,7 +366,8 @@ bool FrontMesher::advance(std::int32_t e, int fails) {
         own.u.normalize();
         own.v = own.n.cross(own.u);
         gather(fr.origin, search, own);
-        const bool ok = is_valid(a, b, c.point, xyz_[q], normal_[q], own, min_cos, -0.1);
+        const bool ok = is_valid(a, b, c.point, xyz_[q], normal_[q], own, min_cos, -0.1) &&
+                        covers_background(xa, xb, xyz_[q], face_[static_cast<std::size_t>(a)]);
         gather(fr.origin, search, fr);
         if (ok) {
             add_triangle(a, b, c.point);

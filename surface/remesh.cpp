@@ -179,7 +179,7 @@ bool handle_stalls(const std::vector<std::optional<FrontStall>>& stalls, int rou
         if (!stalls[p]) continue;
         if (++stalled <= 4) places.append(" ").append(point_text(stalls[p]->place()));
         if (round + 1 >= RetryPolicy::kRounds) throw *stalls[p];
-        retry.on_stall(p, stalls[p]->place());
+        retry.on_stall(p, stalls[p]->place(), round);
     }
     if (stalled == 0) return false;
     ctx.warn("remesh: the front stalled in " + std::to_string(stalled) + " patch(es) (near" +
@@ -199,18 +199,30 @@ void record_logged_warnings(core::StageContext& ctx, const core::StageContext& c
 }
 
 // Counters and warnings of the patches, in patch order; the copied patches reported.
-void report_patches(const PatchCache& cache, const RetryPolicy& retry,
+// Each copied patch is named by its regions and the centre of its bounding box (the first
+// four in patch order), so that a user can find the place.
+void report_patches(const Features& features, const PatchCache& cache, const RetryPolicy& retry,
                     std::map<std::string, double>& round_sums, core::StageContext& ctx) {
     const std::size_t np = cache.meshes.size();
     std::size_t copied = 0, copied_faces = 0;
-    for (std::size_t p = 0; p < np; ++p)
-        if (retry.copy(p)) ++copied, copied_faces += cache.meshes[p].faces.size();
+    std::string places;
+    for (std::size_t p = 0; p < np; ++p) {
+        if (!retry.copy(p)) continue;
+        if (++copied <= 4) {
+            const Patch& patch = features.patches[p];
+            places += (copied > 1 ? "; " : " (") + std::string("regions ") +
+                      std::to_string(patch.region_in) + "/" + std::to_string(patch.region_out) +
+                      " near " + point_text(0.5 * (cache.box[p].lo + cache.box[p].hi));
+        }
+        copied_faces += cache.meshes[p].faces.size();
+    }
     ctx.count("remesh.patches_copied_from_background", double(copied));
+    ctx.count("remesh.faces_copied_from_background", double(copied_faces));
     if (copied > 0)
-        ctx.warn("remesh: " + std::to_string(copied) + " patch(es) (" +
-                 std::to_string(copied_faces) +
-                 " faces) keep their background triangles: the front stalled there twice or faces "
-                 "crossed three times");
+        ctx.warn("remesh: " + std::to_string(copied) + " patch(es)" + places +
+                 (copied > 4 ? "; ...)" : ")") + ", " + std::to_string(copied_faces) +
+                 " faces, keep their background triangles (smoothed only): the front stalled "
+                 "there twice or late, or faces crossed three times");
     for (std::size_t p = 0; p < np; ++p) {
         for (const auto& [name, value] : cache.contexts[p].counters()) round_sums[name] += value;
         record_logged_warnings(ctx, cache.contexts[p]);
@@ -403,7 +415,7 @@ bool mesh_round(int round, Rounds& r, RoundResult& result) {
               double(std::count(dirty.begin(), dirty.end(), 1)));
     const auto stalls = mesh_patches(r.bg, r.features, loops, dirty, r.retry, r.cache, ctx);
     if (handle_stalls(stalls, round, r.retry, ctx)) return false;
-    report_patches(r.cache, r.retry, result.sums, ctx);
+    report_patches(r.features, r.cache, r.retry, result.sums, ctx);
 
     ctx.progress(0.6, "assembly");
     std::vector<std::int32_t> face_patch =

@@ -79,6 +79,10 @@ RegionChecks check_regions(const core::SurfaceNetwork& bg, const core::SurfaceNe
                 for (const std::int32_t e : bad)
                     midpoints.push_back(edge_midpoint(out, et_of_out(), e));
                 retry.on_open_edges(midpoints);
+                // Every edge in order but no volume enclosed (the patches of a region thinner
+                // than h closed on the same few curve points, or turned inward): no edge to
+                // name, so the region's patches are meshed finer as a whole.
+                if (bad.empty()) retry.on_collapsed_region(features, c.region);
                 ctx.warn("remesh: region " + std::to_string(c.region) +
                          " is not a closed 2-manifold after the front; meshing again with half the "
                          "size there");
@@ -146,7 +150,7 @@ bool mend_self_intersections(core::SurfaceNetwork& out, const std::vector<double
         // the closer they follow the background, which does not intersect. A patch whose
         // faces still cross after two rounds of finer sizes (two sheets meeting in a cusp
         // along a curve) keeps its background triangles instead.
-        retry.on_crossings(pairs, out, face_patch);
+        retry.on_crossings(pairs, out, face_patch, round);
         ctx.warn(
             "remesh: " + std::to_string(pairs.size()) +
             " pairs of faces intersect after smoothing; meshing again with half the size there");

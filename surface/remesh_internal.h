@@ -52,12 +52,15 @@ std::string point_text(const Eigen::Vector3d& p);
 ///   crossed after smoothing (r = 2 h at each face), h = field at the place.
 /// - volume_scale(f): per background face, multiplied by clamp(0.9 sqrt(limit / change),
 ///   0.5, 0.9) on the patches of a region whose enclosed volume changed by more than
-///   remesh.max_volume_change_percent (chords lose volume as h^2); volume_scale(v) is the
+///   remesh.max_volume_change_percent (chords lose volume as h^2), and by 1/2 on the
+///   patches of a region that encloses no volume though every edge is in order (a region
+///   thinner than h whose patches closed on the same curve points); volume_scale(v) is the
 ///   smallest scale of the faces at v, updated when a region is refined.
 /// - within one round, triangulate_patch scales a patch by 0.85 per failed attempt
 ///   (FrontParams::attempts) on top.
-/// A patch whose front stalls twice, or whose faces cross in three rounds, keeps its
-/// background triangles from then on (copy()).
+/// A patch whose front stalls twice, or whose faces cross in three rounds, or that does
+/// either in the second-to-last round or later, keeps its background triangles from then on
+/// (copy()): the last round then changes no size, so it meets no new stall.
 class RetryPolicy {
 public:
     /// Rounds at most: the last one reports what still fails instead of retrying.
@@ -84,22 +87,29 @@ public:
     /// The sizes of this round are in use: has_new_sizes() compares with them from now on.
     void mark_sizes_used();
 
-    /// The front of patch p stalled at `place`: a shrink site there, or, at its second stall,
-    /// the patch keeps its background triangles.
-    void on_stall(std::size_t p, const Eigen::Vector3d& place);
+    /// The front of patch p stalled at `place` in round `round` (0-based): a shrink site
+    /// there, or, at its second stall or from the second-to-last round on, the patch keeps
+    /// its background triangles.
+    void on_stall(std::size_t p, const Eigen::Vector3d& place, int round);
     /// Edges of a region that is not a closed 2-manifold (two patches joined the same two
     /// curve points by an inner edge): a shrink site at each midpoint.
     void on_open_edges(const std::vector<Eigen::Vector3d>& midpoints);
     /// Faces f, g of each pair intersect after smoothing (`face_patch` of the output):
     /// patches crossed in a third round keep their background triangles, the other faces
-    /// get a shrink site at their centroid.
+    /// get a shrink site at their centroid. From the second-to-last round (`round`, 0-based)
+    /// on, every crossed patch keeps its background triangles.
     void on_crossings(const std::vector<std::pair<std::int32_t, std::int32_t>>& pairs,
-                      const core::SurfaceNetwork& out, const std::vector<std::int32_t>& face_patch);
+                      const core::SurfaceNetwork& out, const std::vector<std::int32_t>& face_patch,
+                      int round);
     /// The region's enclosed volume changed by `change_percent` (> `limit_percent`): the
     /// volume scale of its patches' faces drops by clamp(0.9 sqrt(limit / |change|), 0.5,
     /// 0.9). The vertex scales follow at update_vertex_scales().
     void on_volume_change(const Features& features, core::Label region, double change_percent,
                           double limit_percent);
+    /// The region has every edge in order but encloses no volume (its patches closed on the
+    /// same few curve points): the volume scale of its patches' faces halves, and the vertex
+    /// scales follow at once.
+    void on_collapsed_region(const Features& features, core::Label region);
     /// volume_scale(v) = min over the faces at v (after on_volume_change).
     void update_vertex_scales();
 

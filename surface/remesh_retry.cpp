@@ -66,8 +66,10 @@ void RetryPolicy::add_shrink_site(const Eigen::Vector3d& centre, double radius_i
     shrink_sites_.emplace_back(centre, radius_in_h * field_.at(centre, -1));
 }
 
-void RetryPolicy::on_stall(std::size_t p, const Eigen::Vector3d& place) {
-    if (++patch_stalls_[p] >= 2) {
+void RetryPolicy::on_stall(std::size_t p, const Eigen::Vector3d& place, int round) {
+    // From the second-to-last round on, a finer size has no round left to prove itself: the
+    // patch keeps its background triangles at once, so the last round cannot stall there.
+    if (++patch_stalls_[p] >= 2 || round + 2 >= kRounds) {
         copy_patch_[p] = 1;
         return;
     }
@@ -80,12 +82,15 @@ void RetryPolicy::on_open_edges(const std::vector<Eigen::Vector3d>& midpoints) {
 
 void RetryPolicy::on_crossings(const std::vector<std::pair<std::int32_t, std::int32_t>>& pairs,
                                const core::SurfaceNetwork& out,
-                               const std::vector<std::int32_t>& face_patch) {
+                               const std::vector<std::int32_t>& face_patch, int round) {
     std::set<std::int32_t> crossed;
     for (const auto& [f, g] : pairs)
         for (const std::int32_t face : {f, g}) crossed.insert(face_patch[std::size_t(face)]);
+    // As for stalls: from the second-to-last round on, finer sizes would be tried in the last
+    // round, where a stall they cause is the error; the crossed patches are copied instead.
     for (const std::int32_t q : crossed)
-        if (++patch_crossings_[std::size_t(q)] >= 3) copy_patch_[std::size_t(q)] = 1;
+        if (++patch_crossings_[std::size_t(q)] >= 3 || round + 2 >= kRounds)
+            copy_patch_[std::size_t(q)] = 1;
     for (const auto& [f, g] : pairs)
         for (const std::int32_t face : {f, g}) {
             if (copy_patch_[std::size_t(face_patch[std::size_t(face)])]) continue;
@@ -107,6 +112,16 @@ void RetryPolicy::on_volume_change(const Features& features, core::Label region,
         rescaled_[p] = 1;
         for (const std::int32_t f : patch.faces) face_scale_[std::size_t(f)] *= factor;
     }
+}
+
+void RetryPolicy::on_collapsed_region(const Features& features, core::Label region) {
+    for (std::size_t p = 0; p < features.patches.size(); ++p) {
+        const Patch& patch = features.patches[p];
+        if (patch.region_in != region && patch.region_out != region) continue;
+        rescaled_[p] = 1;
+        for (const std::int32_t f : patch.faces) face_scale_[std::size_t(f)] *= 0.5;
+    }
+    update_vertex_scales();
 }
 
 void RetryPolicy::update_vertex_scales() {

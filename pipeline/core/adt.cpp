@@ -131,7 +131,7 @@ bool has_nan(const Eigen::Vector3d& v) { return v.array().isNaN().any(); }
 Adt::Adt(const AdtBox& domain, AdtItems items) : domain_(domain), items_(items) {
     static_assert(sizeof(Node) == 64, "the node size is documented in adt.h");
     if (!domain.is_valid())
-        FM_THROW(InputError, "ADT: root domain must be finite with lo <= hi on every axis");
+        FM_THROW(InternalError, "ADT: root domain must be finite with lo <= hi on every axis");
 }
 
 std::int32_t Adt::new_node(std::int32_t depth) {
@@ -265,7 +265,7 @@ void Adt::fill(std::int32_t node, const double* region_lo, const double* region_
 
 void Adt::insert(std::int32_t id, const Eigen::Vector3d& p) {
     if (!p.allFinite())
-        FM_THROW(InputError, "ADT: point of item " + std::to_string(id) + " is not finite");
+        FM_THROW(InternalError, "ADT: point of item " + std::to_string(id) + " is not finite");
     insert(id, AdtBox::of_point(p));
 }
 
@@ -281,8 +281,8 @@ void Adt::insert(std::int32_t id, const AdtBox& box) {
     FM_CHECK(id >= 0);
     FM_CHECK(!contains(id));
     if (!box.is_valid())
-        FM_THROW(InputError, "ADT: box of item " + std::to_string(id) +
-                                 " is not finite or has lo > hi on some axis");
+        FM_THROW(InternalError, "ADT: box of item " + std::to_string(id) +
+                                    " is not finite or has lo > hi on some axis");
     FM_CHECK(items_ == AdtItems::boxes || box.lo == box.hi);
 
     Item item;
@@ -573,7 +573,7 @@ void Adt::collect_box(const AdtBox& query, std::vector<std::int32_t>& out_ids) c
 void Adt::query_box(const AdtBox& query, std::vector<std::int32_t>& out_ids, AdtOrder order) const {
     out_ids.clear();
     if (has_nan(query.lo) || has_nan(query.hi))
-        FM_THROW(InputError, "ADT: query box has a NaN coordinate");
+        FM_THROW(InternalError, "ADT: query box has a NaN coordinate");
     if ((query.lo.array() > query.hi.array()).any()) return;
     collect_box(query, out_ids);
     if (order == AdtOrder::by_id) std::sort(out_ids.begin(), out_ids.end());
@@ -626,7 +626,7 @@ void Adt::query_sphere(const Eigen::Vector3d& center, double radius,
                        std::vector<std::int32_t>& out_ids, AdtOrder order) const {
     out_ids.clear();
     if (!center.allFinite() || std::isnan(radius))
-        FM_THROW(InputError, "ADT: sphere query has a non-finite centre or a NaN radius");
+        FM_THROW(InternalError, "ADT: sphere query has a non-finite centre or a NaN radius");
     if (radius < 0.0) return;
     collect_sphere(center, radius * radius, out_ids);
     if (order == AdtOrder::by_id) std::sort(out_ids.begin(), out_ids.end());
@@ -708,7 +708,7 @@ AdtNeighbor Adt::nearest(const Eigen::Vector3d& p) const {
 
 void Adt::nearest_k(const Eigen::Vector3d& p, std::int32_t k, std::vector<AdtNeighbor>& out) const {
     out.clear();
-    if (!p.allFinite()) FM_THROW(InputError, "ADT: nearest query point is not finite");
+    if (!p.allFinite()) FM_THROW(InternalError, "ADT: nearest query point is not finite");
     if (k <= 0) return;
     const std::size_t count = static_cast<std::size_t>(std::min(k, size_));
     out.reserve(count);

@@ -110,21 +110,25 @@ struct AdtNeighbor {
 ///
 /// Thread safety: const member functions may run concurrently with each other (each thread
 /// uses its own traversal stack); any mutation needs exclusive access.
+///
+/// Every coordinate reaching the tree is computed by frontmesh (the readers reject non-finite
+/// input), so a non-finite or reversed argument is a bug of the caller: InternalError (exit 1),
+/// never InputError.
 class Adt {
 public:
     /// An empty tree whose root region is `domain` (e.g. the input's bounding box slightly
-    /// enlarged). Throws InputError when `domain` is not finite or lo > hi on some axis.
+    /// enlarged). Throws InternalError when `domain` is not finite or lo > hi on some axis.
     /// A zero extent on an axis is allowed but gives that axis no separating power.
     Adt(const AdtBox& domain, AdtItems items);
 
     /// Inserts the point `p` under `id`. Valid for both kinds (a point is a degenerate box).
-    /// Preconditions: id >= 0 and not present (else InternalError); throws InputError when
+    /// Preconditions: id >= 0 and not present (else InternalError); throws InternalError when
     /// `p` is not finite. Cost O(depth).
     void insert(std::int32_t id, const Eigen::Vector3d& p);
 
     /// Inserts the box `box` under `id`. A tree of points accepts only degenerate boxes.
     /// Preconditions: id >= 0 and not present, and (points tree) box.lo == box.hi, else
-    /// InternalError; throws InputError when `box` is not valid. Cost O(depth), less when the
+    /// InternalError; throws InternalError when `box` is not valid. Cost O(depth), less when the
     /// key falls in the region of the node where the last insertion ended: the descent starts
     /// there (the same tree as from the root).
     void insert(std::int32_t id, const AdtBox& box);
@@ -164,7 +168,7 @@ public:
 
     /// Ids of the items whose box intersects the closed box `query`, in increasing id order
     /// (written to `out_ids`, which is cleared first). Empty when query.lo > query.hi on some
-    /// axis; throws InputError on NaN coordinates. With AdtOrder::walk the same ids come in the
+    /// axis; throws InternalError on NaN coordinates. With AdtOrder::walk the same ids come in the
     /// order of the tree walk, unsorted.
     void query_box(const AdtBox& query, std::vector<std::int32_t>& out_ids,
                    AdtOrder order = AdtOrder::by_id) const;
@@ -172,17 +176,17 @@ public:
     /// Ids of the items whose box intersects the closed ball (`center`, `radius` mm), i.e.
     /// squared_distance(box, center) <= radius * radius, in increasing id order (written to
     /// `out_ids`, cleared first). Empty for a negative radius; an infinite radius returns all
-    /// items. Throws InputError on NaN input. AdtOrder::walk as for query_box.
+    /// items. Throws InternalError on NaN input. AdtOrder::walk as for query_box.
     void query_sphere(const Eigen::Vector3d& center, double radius,
                       std::vector<std::int32_t>& out_ids, AdtOrder order = AdtOrder::by_id) const;
 
     /// The item closest to `p` by squared_distance (0 for boxes containing `p`), ties broken by
-    /// the smaller id; id -1 when the tree is empty. Throws InputError when `p` is not finite.
+    /// the smaller id; id -1 when the tree is empty. Throws InternalError when `p` is not finite.
     AdtNeighbor nearest(const Eigen::Vector3d& p) const;
 
     /// The `k` items closest to `p`, ordered by (distance2, id) ascending: the first
     /// min(k, size()) items of that order (written to `out`, cleared first). Throws
-    /// InputError when `p` is not finite.
+    /// InternalError when `p` is not finite.
     void nearest_k(const Eigen::Vector3d& p, std::int32_t k, std::vector<AdtNeighbor>& out) const;
 
     /// The root region given at construction.

@@ -673,8 +673,8 @@ TEST_CASE("ADT handles flat boxes and a flat domain", "[core]") {
 
 TEST_CASE("ADT edge cases and precondition errors", "[core]") {
     CHECK_THROWS_AS(Adt(AdtBox{Vector3d(0, 0, 0), Vector3d(1, -1, 1)}, AdtItems::boxes),
-                    InputError);
-    CHECK_THROWS_AS(Adt(AdtBox{}, AdtItems::points), InputError);
+                    InternalError);
+    CHECK_THROWS_AS(Adt(AdtBox{}, AdtItems::points), InternalError);
 
     Adt adt(unit_box, AdtItems::points);
     std::vector<std::int32_t> got{42};
@@ -688,8 +688,8 @@ TEST_CASE("ADT edge cases and precondition errors", "[core]") {
     adt.insert(9, Vector3d(0.9, 0.2, 0.3));
     CHECK_THROWS_AS(adt.insert(4, Vector3d(0.5, 0.5, 0.5)), InternalError);
     CHECK_THROWS_AS(adt.insert(-1, Vector3d(0.5, 0.5, 0.5)), InternalError);
-    CHECK_THROWS_AS(adt.insert(5, Vector3d(std::nan(""), 0.5, 0.5)), InputError);
-    CHECK_THROWS_AS(adt.insert(5, Vector3d(inf, 0.5, 0.5)), InputError);
+    CHECK_THROWS_AS(adt.insert(5, Vector3d(std::nan(""), 0.5, 0.5)), InternalError);
+    CHECK_THROWS_AS(adt.insert(5, Vector3d(inf, 0.5, 0.5)), InternalError);
     CHECK_THROWS_AS(adt.insert(5, AdtBox{Vector3d::Zero(), Vector3d::Ones()}), InternalError);
     CHECK_THROWS_AS(adt.box(5), InternalError);
     CHECK(adt.size() == 2);
@@ -705,8 +705,8 @@ TEST_CASE("ADT edge cases and precondition errors", "[core]") {
     CHECK(got == std::vector<std::int32_t>{4, 9});
     adt.query_box(AdtBox{Vector3d::Constant(-inf), Vector3d::Constant(inf)}, got);
     CHECK(got == std::vector<std::int32_t>{4, 9});
-    CHECK_THROWS_AS(adt.query_sphere(Vector3d(0, 0, 0), std::nan(""), got), InputError);
-    CHECK_THROWS_AS(adt.nearest(Vector3d(inf, 0, 0)), InputError);
+    CHECK_THROWS_AS(adt.query_sphere(Vector3d(0, 0, 0), std::nan(""), got), InternalError);
+    CHECK_THROWS_AS(adt.nearest(Vector3d(inf, 0, 0)), InternalError);
 
     std::vector<AdtNeighbor> near;
     adt.nearest_k(Vector3d(0.8, 0.2, 0.3), 10, near);

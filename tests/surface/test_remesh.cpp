@@ -207,7 +207,7 @@ TEST_CASE("the retry policy owns every size multiplier of the rounds", "[remesh]
 
     // A first stall: a shrink site of radius 4 h = 8 mm: 1/2 within it, 1 beyond 16 mm.
     const Eigen::Vector3d place(10, 10, 0);
-    retry.on_stall(0, place);
+    retry.on_stall(0, place, 0);
     CHECK(!retry.copy(0));
     CHECK(retry.shrink(place) == 0.5);
     CHECK(retry.shrink(place + Eigen::Vector3d(12, 0, 0)) == Approx(0.75));
@@ -221,9 +221,17 @@ TEST_CASE("the retry policy owns every size multiplier of the rounds", "[remesh]
     CHECK(retry.shrink(place) == 0.125);
     // A second stall of the same patch: it keeps its background triangles, no new site.
     retry.mark_sizes_used();
-    retry.on_stall(0, far);
+    retry.on_stall(0, far, 1);
     CHECK(retry.copy(0));
     CHECK(!retry.has_new_sizes(0, whole));
+    // In the second-to-last round a first stall copies the patch at once: the last round
+    // must not stall there.
+    surface::remesh_detail::RetryPolicy late(bg, field, 1);
+    late.on_stall(0, place, surface::remesh_detail::RetryPolicy::kRounds - 2);
+    CHECK(late.copy(0));
+    surface::remesh_detail::RetryPolicy crossed(bg, field, 1);
+    crossed.on_crossings({{0, 1}}, bg, {0, 0}, surface::remesh_detail::RetryPolicy::kRounds - 2);
+    CHECK(crossed.copy(0));
 
     // A region that lost 20% of its volume against a 10% limit: x 0.9 sqrt(1/2); a change
     // of 80% would ask for less than the floor of 0.5.
