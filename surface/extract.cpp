@@ -667,8 +667,8 @@ private:
 void drop_small_components(const core::LabelImage& image, std::vector<Label>& labels,
                            double min_volume_mm3, std::vector<char>& dropped, ComponentLog& log,
                            core::StageContext& ctx) {
-    if (min_volume_mm3 <= 0.0) return;
     const double voxel_mm3 = image.voxel_volume();
+    if (min_volume_mm3 <= voxel_mm3) return;  // no component is smaller than one voxel
     const std::string limit =
         "repair.min_component_volume_mm3 = " + format_number(min_volume_mm3) + " mm^3";
     std::size_t cavities = 0, cavity_voxels = 0, kept = 0;
@@ -729,23 +729,28 @@ void drop_small_components(const core::LabelImage& image, std::vector<Label>& la
                  " that touch several labels");
 }
 
-// Names each component of `reference` (the chosen labels of the input image) that has no
-// voxel of its label left in `labels` (what is contoured) and was not named as small.
-void name_lost_components(const LabelComponents& reference, const std::vector<Label>& labels,
-                          const std::vector<char>& dropped, const std::string& cleanups,
-                          ComponentLog& log) {
-    std::vector<char> survives(reference.list.size(), 0), named(reference.list.size(), 0);
-    for (std::size_t v = 0; v < labels.size(); ++v) {
-        const auto c = static_cast<std::size_t>(reference.of_voxel[v]);
-        if (labels[v] == reference.list[c].label) survives[c] = 1;
-        if (dropped[v]) named[c] = 1;
-    }
-    for (std::size_t c = 0; c < reference.list.size(); ++c) {
-        const LabelComponent& comp = reference.list[c];
-        if (comp.label == 0 || survives[c] || named[c]) continue;
-        log.drop(comp.label, comp.voxels, comp.centre_index,
-                 "its voxels were removed by " + cleanups);
-    }
+// Names each component of a chosen label in `original` (the input image's labels, the
+// others 0) that has no voxel of its label left in `labels` (what is contoured) and was
+// not named as small. Only components holding a voxel whose label changed can be lost, so
+// only those are filled.
+void name_lost_components(const core::LabelImage& image, const std::vector<Label>& original,
+                          const std::vector<Label>& labels, const std::vector<char>& dropped,
+                          const std::string& cleanups, ComponentLog& log) {
+    std::vector<std::size_t> changed;
+    for (std::size_t v = 0; v < labels.size(); ++v)
+        if (original[v] != 0 && labels[v] != original[v]) changed.push_back(v);
+    if (changed.empty()) return;
+    std::vector<char> survives, named;
+    const std::vector<LabelComponent> comps =
+        components_containing(image.dims, original, changed, [&](std::size_t c, std::size_t v) {
+            if (c >= survives.size()) survives.resize(c + 1, 0), named.resize(c + 1, 0);
+            if (labels[v] == original[v]) survives[c] = 1;
+            if (dropped[v]) named[c] = 1;
+        });
+    for (std::size_t c = 0; c < comps.size(); ++c)
+        if (!survives[c] && !named[c])
+            log.drop(comps[c].label, comps[c].voxels, comps[c].centre_index,
+                     "its voxels were removed by " + cleanups);
 }
 
 // The voxel edits that can remove a component, for messages.
@@ -914,14 +919,14 @@ core::SurfaceNetwork extract(const core::LabelImage& image, const ExtractParams&
                                      image.source + "' (labels present: " + label_list(present) +
                                      ")");
     ctx.count("extract.labels", static_cast<double>(chosen.size()));
-    // The components of the chosen labels as the user gave them: each is meshed or named.
-    const LabelComponents reference = [&] {
-        if (chosen.size() == present.size()) return label_components(image.dims, image.labels);
-        std::vector<Label> only_chosen = image.labels;
+    // The chosen labels as the user gave them: each of their components is meshed or named.
+    std::vector<Label> only_chosen;
+    if (chosen.size() != present.size()) {
+        only_chosen = image.labels;
         for (Label& l : only_chosen)
             if (l != 0 && !chosen.count(l)) l = 0;
-        return label_components(image.dims, only_chosen);
-    }();
+    }
+    const std::vector<Label>& original = only_chosen.empty() ? image.labels : only_chosen;
 
     std::vector<Label> labels = cleaned_labels(image, params, ctx);
     if (chosen.size() != present.size())
@@ -986,14 +991,13 @@ core::SurfaceNetwork extract(const core::LabelImage& image, const ExtractParams&
                  " labels");
         out = surface_nets(image, labels, params, ctx);
     }
-    name_lost_components(reference, labels, dropped, cleanup_names(params), log);
+    name_lost_components(image, original, labels, dropped, cleanup_names(params), log);
     log.finish();
     // A chosen label without a face is always named, whatever the cap on the lines above.
     const std::vector<Label> meshed = core::region_labels(out);
     for (Label l : chosen)
         if (!std::binary_search(meshed.begin(), meshed.end(), l)) {
-            std::size_t voxels = 0;
-            for (const LabelComponent& c : reference.list) voxels += c.label == l ? c.voxels : 0;
+            const auto voxels = std::count(original.begin(), original.end(), l);
             ctx.warn("extract: label " + std::to_string(l) + " is not meshed at all (" +
                      std::to_string(voxels) +
                      " voxels in the image; its components are named in"

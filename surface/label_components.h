@@ -6,6 +6,7 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <vector>
 
 #include <Eigen/Core>
@@ -29,7 +30,7 @@ struct LabelComponent {
 
 /// Every component of a label array, label 0 included.
 struct LabelComponents {
-    std::vector<LabelComponent> list;  ///< in order of their first voxel (x fastest)
+    std::vector<LabelComponent> list;    ///< in order of their first voxel (x fastest)
     std::vector<std::int32_t> of_voxel;  ///< per voxel: its component's index in `list`
 };
 
@@ -38,5 +39,14 @@ struct LabelComponents {
 /// component (4 B per voxel). Throws InputError for an image of 2^31 voxels or more.
 LabelComponents label_components(const std::array<int, 3>& dims,
                                  const std::vector<core::Label>& labels);
+
+/// The labelled components of `labels` that hold one of `seeds` (each once, in the order of
+/// the first seed in it; seeds on label 0 are skipped). `visit(c, v)` is called once for
+/// each voxel v of component c. Cost: the voxels of those components; memory 1 B per voxel
+/// plus the queue.
+std::vector<LabelComponent> components_containing(
+    const std::array<int, 3>& dims, const std::vector<core::Label>& labels,
+    const std::vector<std::size_t>& seeds,
+    const std::function<void(std::size_t component, std::size_t voxel)>& visit);
 
 }  // namespace frontmesh::surface

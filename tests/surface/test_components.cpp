@@ -93,7 +93,8 @@ TEST_CASE("extract + repair keep a 2 x 2 x 1 island of 1 mm voxels at the defaul
     // (1 mm^3) is on the voxels, so it stays.
     auto image = fixtures::sphere_image(32, 8.0, 1.0, 1);
     fill_box(image, {26, 26, 26}, {27, 27, 26}, 1);
-    const ImageRun run = extract_and_repair(image, surface::RepairParams{}.min_component_volume_mm3);
+    const ImageRun run =
+        extract_and_repair(image, surface::RepairParams{}.min_component_volume_mm3);
     require_closed_and_oriented(run.surface);
     CHECK(run.extract_ctx.dropped_components().empty());
     CHECK(run.repair_ctx.dropped_components().empty());
@@ -176,8 +177,7 @@ TEST_CASE("a blurred flying-edges mask drops its specks by their voxels", "[surf
     REQUIRE(dropped.extract_ctx.dropped_components().size() == 1);
     CHECK(dropped.extract_ctx.dropped_components()[0].voxels >= 8);
     require_closed_and_oriented(dropped.surface);
-    CHECK(core::enclosed_volume(dropped.surface, 1) <
-          core::enclosed_volume(kept.surface, 1) - 8.0);
+    CHECK(core::enclosed_volume(dropped.surface, 1) < core::enclosed_volume(kept.surface, 1) - 8.0);
 }
 
 TEST_CASE("an image whose every component is below the limit is meshed whole", "[surface]") {
@@ -220,8 +220,8 @@ TEST_CASE("repair names each piece it removes from a surface", "[surface]") {
     for (std::size_t v = 0; v < speck.vertex_count(); ++v)
         s.add_vertex(speck.point(static_cast<std::int32_t>(v)) + Eigen::Vector3d(30, 0, 0));
     for (std::size_t f = 0; f < speck.face_count(); ++f)
-        s.add_face(base + speck.faces[f][0], base + speck.faces[f][1], base + speck.faces[f][2],
-                   4, 0);
+        s.add_face(base + speck.faces[f][0], base + speck.faces[f][1], base + speck.faces[f][2], 4,
+                   0);
     core::StageContext ctx;
     surface::repair(s, surface::RepairParams{}, ctx);
     REQUIRE(ctx.dropped_components().size() == 1);
