@@ -458,6 +458,9 @@ Recipe load_recipe(const std::string& path, const std::vector<std::string>& over
                                  "label 1; use [1] or all");
     check_output_dir(recipe, origin_for("output.dir"));
     recipe.extract.labels = in.labels;
+    // An image's components are measured in voxels, by extract (issue 20).
+    recipe.extract.min_component_volume_mm3 = recipe.repair.min_component_volume_mm3;
+    recipe.repair.is_from_image = !in.image.empty();
     surface::validate(recipe.extract);
     surface::validate(recipe.repair);
     surface::validate(recipe.remesh);
@@ -488,7 +491,7 @@ std::string canonical_params(const Recipe& recipe, const std::string& section) {
         s << "method=" << static_cast<int>(e.method) << ";blur=" << e.blur_sigma_mm
           << ";iterations=" << e.smoothing_iterations << ";relaxation=" << e.smoothing_relaxation
           << ";cleanup=" << e.manifold_cleanup << ";closing=" << e.closing_voxels
-          << ";opening=" << e.opening_voxels;
+          << ";opening=" << e.opening_voxels << ";min_volume=" << e.min_component_volume_mm3;
         for (auto l : e.labels) s << ";label=" << l;
     } else if (section == "repair") {
         const auto& p = recipe.repair;

@@ -3,6 +3,7 @@
 #include <sys/resource.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <csignal>
@@ -516,8 +517,20 @@ void Run::run_one(int i) {
     diagnostics_.start(stage.name);
     std::vector<core::TetFigures>().swap(figures_);  // the last stage's: not held while this runs
     const auto t0 = std::chrono::steady_clock::now();
+    // A surface stage that loses a whole region says so (issue 20: nothing disappears
+    // silently); extract names what it leaves out itself.
+    std::vector<core::Label> regions_before;
+    if (stage.in == Kind::Surface && stage.out == Kind::Surface)
+        regions_before = core::region_labels(std::get<core::SurfaceNetwork>(data_));
     StageOutput output = call_stage(i, ctx);
     log_.clear_progress();
+    if (!regions_before.empty()) {
+        const auto after = core::region_labels(std::get<core::SurfaceNetwork>(output.data));
+        for (const core::Label l : regions_before)
+            if (!std::binary_search(after.begin(), after.end(), l))
+                ctx.warn(stage.name + ": label " + std::to_string(l) +
+                         " is not meshed at all: its region has no face left");
+    }
     const double wall =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     data_ = std::move(output.data);
@@ -593,6 +606,14 @@ void Run::write_stage_summary(int i, const core::StageContext& ctx, double wall,
     part << "},\n     \"warnings\": [";
     for (std::size_t w = 0; w < ctx.warnings().size(); ++w)
         part << (w ? ", " : "") << json_quote(ctx.warnings()[w]);
+    part << "],\n     \"dropped_components\": [";
+    for (std::size_t c = 0; c < ctx.dropped_components().size(); ++c) {
+        const core::DroppedComponent& d = ctx.dropped_components()[c];
+        part << (c ? ",\n       " : "") << "{\"label\": " << d.label << ", \"voxels\": " << d.voxels
+             << ", \"position_mm\": [" << json_number(d.position_mm[0]) << ", "
+             << json_number(d.position_mm[1]) << ", " << json_number(d.position_mm[2])
+             << "], \"reason\": " << json_quote(d.reason) << "}";
+    }
     part << "],\n     \"quality\": " << quality.json << "}";
     io::write_text_atomically(out_.with_ext(stage, ".json").string(), part.str());
     io::write_text_atomically(out_.with_ext(stage, ".hash").string(), hashes_[i] + "\n");

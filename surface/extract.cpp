@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdlib>
+#include <iomanip>
 #include <map>
 #include <set>
 #include <sstream>
@@ -23,6 +24,7 @@
 
 #include "pipeline/core/error.h"
 #include "pipeline/core/self_intersection.h"
+#include "surface/label_components.h"
 #include "surface/morphology.h"
 
 namespace frontmesh::surface {
@@ -603,8 +605,171 @@ core::SurfaceNetwork surface_nets(const core::LabelImage& image, std::vector<Lab
     return out;
 }
 
-core::SurfaceNetwork flying_edges(const core::LabelImage& image, const std::vector<Label>& labels,
+// Components of a chosen label and of the outside, measured in voxels (issue 20, item 5):
+// the small ones are given the label around them, and every component of a chosen label
+// that ends up without a surface is named.
+
+constexpr std::size_t kWarnedComponents = 20;    // warning lines per run; the rest counted
+constexpr std::size_t kListedComponents = 1000;  // ctx.drop records per run
+
+std::string format_number(double v) {
+    std::ostringstream s;
+    s << std::setprecision(6) << v;
+    return s.str();
+}
+
+// Names the components extract leaves out: a warning each (the first kWarnedComponents),
+// a record each (the first kListedComponents), and the counters.
+class ComponentLog {
+public:
+    ComponentLog(const core::LabelImage& image, core::StageContext& ctx)
+        : image_(image), ctx_(ctx) {}
+
+    void drop(Label label, std::size_t voxels, const Eigen::Vector3d& centre_index,
+              const std::string& reason) {
+        const Eigen::Vector3d p = image_.physical(centre_index);
+        ++dropped_;
+        dropped_voxels_ += voxels;
+        if (dropped_ <= kWarnedComponents)
+            ctx_.warn("extract: label " + std::to_string(label) + ": component of " +
+                      std::to_string(voxels) + (voxels == 1 ? " voxel (" : " voxels (") +
+                      format_number(double(voxels) * image_.voxel_volume()) + " mm^3) at (" +
+                      format_number(p.x()) + ", " + format_number(p.y()) + ", " +
+                      format_number(p.z()) + ") mm not meshed: " + reason);
+        if (dropped_ <= kListedComponents)
+            ctx_.drop({label, voxels, {p.x(), p.y(), p.z()}, reason});
+    }
+
+    void finish() {
+        ctx_.count("extract.dropped_components", double(dropped_));
+        ctx_.count("extract.dropped_component_voxels", double(dropped_voxels_));
+        if (dropped_ > kWarnedComponents)
+            ctx_.warn("extract: " + std::to_string(dropped_ - kWarnedComponents) +
+                      " more components not meshed (the first " +
+                      std::to_string(std::min(dropped_, kListedComponents)) +
+                      " are listed in summary.json, dropped_components)");
+    }
+
+private:
+    const core::LabelImage& image_;
+    core::StageContext& ctx_;
+    std::size_t dropped_ = 0, dropped_voxels_ = 0;
+};
+
+// Gives each component of a chosen label, and each cavity (a component of the outside off
+// the image border), with fewer than `min_volume_mm3` of voxels the one label around it;
+// one with several labels around it stays (it shares an interface: as repair, never tear
+// one). Relabelling a component surrounded through all its faces by one label keeps every
+// label's boundary manifold (no other label touches it within a 2 x 2 x 2 block, else the
+// rest of that block would not have been face-connected), so this runs after the clean-up.
+// Marks the relabelled voxels of chosen labels in `dropped`. When no component of a chosen
+// label reaches the minimum, all are kept: the whole object is not a speck.
+void drop_small_components(const core::LabelImage& image, std::vector<Label>& labels,
+                           double min_volume_mm3, std::vector<char>& dropped, ComponentLog& log,
+                           core::StageContext& ctx) {
+    const double voxel_mm3 = image.voxel_volume();
+    if (min_volume_mm3 <= voxel_mm3) return;  // no component is smaller than one voxel
+    const std::string limit =
+        "repair.min_component_volume_mm3 = " + format_number(min_volume_mm3) + " mm^3";
+    std::size_t cavities = 0, cavity_voxels = 0, kept = 0;
+    // A relabelled component merges with the label around it, so every round that changes
+    // something lowers the number of components: the rounds end. A component small only
+    // once its inner islands are gone is found in a later round; kRounds bounds the cost on
+    // deeper nesting (what is left then is kept, as a too-large component would be).
+    constexpr int kRounds = 4;
+    for (int round = 0; round < kRounds; ++round) {
+        const LabelComponents comps = label_components(image.dims, labels);
+        const auto is_small = [&](const LabelComponent& c) {
+            return double(c.voxels) * voxel_mm3 < min_volume_mm3;
+        };
+        if (round == 0 &&
+            std::none_of(comps.list.begin(), comps.list.end(),
+                         [&](const LabelComponent& c) { return c.label != 0 && !is_small(c); })) {
+            ctx.warn("extract: every component of the chosen labels is smaller than " + limit +
+                     "; all are kept");
+            return;
+        }
+        std::vector<Label> to(comps.list.size(), -1);
+        bool changed = false;
+        for (std::size_t i = 0; i < comps.list.size(); ++i) {
+            const LabelComponent& c = comps.list[i];
+            if (!is_small(c)) continue;
+            if (c.surrounding < 0 || (c.label == 0 && c.touches_border)) {
+                kept += c.label != 0 && round == 0 ? 1 : 0;
+                continue;
+            }
+            to[i] = c.surrounding;
+            changed = true;
+            if (c.label == 0) {
+                ++cavities;
+                cavity_voxels += c.voxels;
+                continue;
+            }
+            log.drop(c.label, c.voxels, c.centre_index,
+                     "smaller than " + limit + "; its voxels join " +
+                         (c.surrounding == 0
+                              ? std::string("the outside")
+                              : "the region around it, " + std::to_string(c.surrounding)));
+        }
+        if (!changed) break;
+        for (std::size_t v = 0; v < labels.size(); ++v)
+            if (const Label l = to[static_cast<std::size_t>(comps.of_voxel[v])]; l >= 0) {
+                if (labels[v] != 0) dropped[v] = 1;
+                labels[v] = l;
+            }
+    }
+    ctx.count("extract.filled_cavities", double(cavities));
+    ctx.count("extract.filled_cavity_voxels", double(cavity_voxels));
+    ctx.count("extract.small_components_kept", double(kept));
+    if (cavities > 0)
+        ctx.info("extract: filled " + std::to_string(cavities) + " cavities smaller than " + limit +
+                 " (" + std::to_string(cavity_voxels) + " voxels)");
+    if (kept > 0)
+        ctx.info("extract: kept " + std::to_string(kept) + " components smaller than " + limit +
+                 " that touch several labels");
+}
+
+// Names each component of a chosen label in `original` (the input image's labels, the
+// others 0) that has no voxel of its label left in `labels` (what is contoured) and was
+// not named as small. Only components holding a voxel whose label changed can be lost, so
+// only those are filled.
+void name_lost_components(const core::LabelImage& image, const std::vector<Label>& original,
+                          const std::vector<Label>& labels, const std::vector<char>& dropped,
+                          const std::string& cleanups, ComponentLog& log) {
+    std::vector<std::size_t> changed;
+    for (std::size_t v = 0; v < labels.size(); ++v)
+        if (original[v] != 0 && labels[v] != original[v]) changed.push_back(v);
+    if (changed.empty()) return;
+    std::vector<char> survives, named;
+    const std::vector<LabelComponent> comps =
+        components_containing(image.dims, original, changed, [&](std::size_t c, std::size_t v) {
+            if (c >= survives.size()) survives.resize(c + 1, 0), named.resize(c + 1, 0);
+            if (labels[v] == original[v]) survives[c] = 1;
+            if (dropped[v]) named[c] = 1;
+        });
+    for (std::size_t c = 0; c < comps.size(); ++c)
+        if (!survives[c] && !named[c])
+            log.drop(comps[c].label, comps[c].voxels, comps[c].centre_index,
+                     "its voxels were removed by " + cleanups);
+}
+
+// The voxel edits that can remove a component, for messages.
+std::string cleanup_names(const ExtractParams& params) {
+    std::string s;
+    auto add = [&](const std::string& key) { s += (s.empty() ? "" : ", ") + key; };
+    if (params.closing_voxels > 0) add("extract.closing_voxels");
+    if (params.opening_voxels > 0) add("extract.opening_voxels");
+    if (params.blur_sigma_mm > 0) add("extract.blur_sigma_mm");
+    if (params.manifold_cleanup) add("extract.manifold_cleanup");
+    return s.empty() ? "the voxel clean-up" : "the voxel clean-up (" + s + ")";
+}
+
+// Discrete flying edges on `label`'s mask, or, with a blur, flying edges at 0.5 on the
+// blurred mask. With a blur the small components and cavities are those of the voxels whose
+// blurred value exceeds 0.5 (what the contour encloses), and `labels` becomes that mask.
+core::SurfaceNetwork flying_edges(const core::LabelImage& image, std::vector<Label>& labels,
                                   Label label, const ExtractParams& params,
+                                  std::vector<char>& dropped, ComponentLog& log,
                                   core::StageContext& ctx) {
     vtkNew<vtkImageData> mask;
     mask->SetDimensions(image.dims[0], image.dims[1], image.dims[2]);
@@ -634,8 +799,20 @@ core::SurfaceNetwork flying_edges(const core::LabelImage& image, const std::vect
                                     params.blur_sigma_mm / image.spacing.y(),
                                     params.blur_sigma_mm / image.spacing.z());
         blur->SetRadiusFactors(3.0, 3.0, 3.0);
+        blur->Update();
+        vtkNew<vtkImageData> field;
+        field->DeepCopy(blur->GetOutput());
+        vtkDataArray* f = field->GetPointData()->GetScalars();
+        FM_CHECK(f != nullptr && f->GetNumberOfTuples() == vtkIdType(labels.size()));
+        for (std::size_t v = 0; v < labels.size(); ++v)
+            labels[v] = f->GetTuple1(vtkIdType(v)) > 0.5 ? label : 0;
+        const std::vector<Label> before = labels;
+        drop_small_components(image, labels, params.min_component_volume_mm3, dropped, log, ctx);
+        // A dropped piece goes to 0 and a filled cavity to 1: no value near it crosses 0.5.
+        for (std::size_t v = 0; v < labels.size(); ++v)
+            if (labels[v] != before[v]) f->SetTuple1(vtkIdType(v), labels[v] == label ? 1.0 : 0.0);
         vtkNew<vtkFlyingEdges3D> contour_filter;
-        contour_filter->SetInputConnection(blur->GetOutputPort());
+        contour_filter->SetInputData(field);
         contour_filter->SetValue(0, 0.5);
         contour_filter->ComputeNormalsOff();
         contour_filter->ComputeGradientsOff();
@@ -728,8 +905,7 @@ core::SurfaceNetwork extract(const core::LabelImage& image, const ExtractParams&
                              core::StageContext& ctx) {
     validate(params);
     FM_CHECK(image.labels.size() == image.voxel_count());
-    std::vector<Label> labels = cleaned_labels(image, params, ctx);
-    const std::set<Label> present = labels_present(labels);
+    const std::set<Label> present = labels_present(image.labels);
     if (present.empty())
         FM_THROW(
             InputError,
@@ -743,7 +919,16 @@ core::SurfaceNetwork extract(const core::LabelImage& image, const ExtractParams&
                                      image.source + "' (labels present: " + label_list(present) +
                                      ")");
     ctx.count("extract.labels", static_cast<double>(chosen.size()));
+    // The chosen labels as the user gave them: each of their components is meshed or named.
+    std::vector<Label> only_chosen;
+    if (chosen.size() != present.size()) {
+        only_chosen = image.labels;
+        for (Label& l : only_chosen)
+            if (l != 0 && !chosen.count(l)) l = 0;
+    }
+    const std::vector<Label>& original = only_chosen.empty() ? image.labels : only_chosen;
 
+    std::vector<Label> labels = cleaned_labels(image, params, ctx);
     if (chosen.size() != present.size())
         for (Label& l : labels)
             if (l != 0 && !chosen.count(l)) l = 0;
@@ -789,18 +974,35 @@ core::SurfaceNetwork extract(const core::LabelImage& image, const ExtractParams&
     }
     ctx.progress(0.2, "labels ready");
 
+    ComponentLog log(image, ctx);
+    std::vector<char> dropped(labels.size(), 0);  // voxels of chosen labels given away as small
+    const bool blurred_mask = method == ExtractMethod::FlyingEdges && params.blur_sigma_mm > 0.0;
+    if (!blurred_mask)
+        drop_small_components(image, labels, params.min_component_volume_mm3, dropped, log, ctx);
     core::SurfaceNetwork out;
     if (method == ExtractMethod::FlyingEdges) {
         ctx.info("extract: VTK discrete flying edges on label " + std::to_string(*chosen.begin()) +
                  (params.blur_sigma_mm > 0
                       ? " (blur sigma " + std::to_string(params.blur_sigma_mm) + " mm)"
                       : ""));
-        out = flying_edges(image, labels, *chosen.begin(), params, ctx);
+        out = flying_edges(image, labels, *chosen.begin(), params, dropped, log, ctx);
     } else {
         ctx.info("extract: multi-label surface nets on " + std::to_string(chosen.size()) +
                  " labels");
         out = surface_nets(image, labels, params, ctx);
     }
+    name_lost_components(image, original, labels, dropped, cleanup_names(params), log);
+    log.finish();
+    // A chosen label without a face is always named, whatever the cap on the lines above.
+    const std::vector<Label> meshed = core::region_labels(out);
+    for (Label l : chosen)
+        if (!std::binary_search(meshed.begin(), meshed.end(), l)) {
+            const auto voxels = std::count(original.begin(), original.end(), l);
+            ctx.warn("extract: label " + std::to_string(l) + " is not meshed at all (" +
+                     std::to_string(voxels) +
+                     " voxels in the image; its components are named in"
+                     " summary.json, dropped_components)");
+        }
     ctx.count("extract.vertices", static_cast<double>(out.vertex_count()));
     ctx.count("extract.faces", static_cast<double>(out.face_count()));
     ctx.progress(1.0, "done");

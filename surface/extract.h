@@ -5,7 +5,10 @@
 //   Out: a SurfaceNetwork in mm in the image's frame: one closed, outward-oriented
 //        triangle boundary per chosen label, each interface once with both labels
 //        (region_in / region_out). Before contouring, the optional voxel closing and
-//        opening (surface/morphology.h) and the manifold clean-up edit the labels.
+//        opening (surface/morphology.h) and the manifold clean-up edit the labels, and
+//        components smaller than `min_component_volume_mm3` of voxels are left out. Every
+//        connected component of a chosen label that is not meshed is named in a warning
+//        and listed (StageContext::drop).
 //   Next: repair.
 
 #include <vector>
@@ -24,9 +27,19 @@ enum class ExtractMethod {
 };
 
 /// Parameters of the extract stage: member `m` is recipe key `extract.m` (except `labels`,
-/// from `input.labels`); default, range and unit are declared in extract_keys().
+/// from `input.labels`, and `min_component_volume_mm3`, from
+/// `repair.min_component_volume_mm3`); default, range and unit are declared in
+/// extract_keys() and repair_keys().
 struct ExtractParams {
     std::vector<core::Label> labels;  ///< labels to mesh (`input.labels`); empty = all
+    /// A connected component of a chosen label (6-connected voxels, see label_components.h)
+    /// with fewer mm^3 of voxels than this, whose neighbouring voxels all carry one label, is
+    /// given that label; so is a cavity (a component of the outside not on the image border)
+    /// under this size inside one label. Measured on the voxels contoured: after the closing,
+    /// opening, label blur and manifold clean-up; with flying_edges and a blur, on the voxels
+    /// whose blurred mask exceeds 0.5. When no component of any chosen label reaches it,
+    /// every component is kept (with a warning). `repair.min_component_volume_mm3`.
+    double min_component_volume_mm3 = 1.0;
     ExtractMethod method = ExtractMethod::Auto;
     /// Gaussian blur (mm); 0 contours the voxels as they are. flying_edges: the label mask is
     /// blurred and contoured at 0.5. surface_nets: each label's indicator (0 included) is
@@ -59,12 +72,19 @@ struct ExtractParams {
 const core::ParamTable<ExtractParams>& extract_keys();
 
 /// Throws InputError "extract.KEY: must be in RANGE, got VALUE" for a member outside its
-/// declared range, and "input.labels: ..." for a label <= 0.
+/// declared range, "input.labels: ..." for a label <= 0, and
+/// "repair.min_component_volume_mm3: ..." for a negative or non-finite minimum.
 void validate(const ExtractParams& params);
 
 /// Contours the chosen labels. With several labels the result is one network: each
 /// interface is one set of triangles carrying both labels (region_in = larger label,
-/// region_out = smaller, 0 = outside), regions closed and oriented outward.
+/// region_out = smaller, 0 = outside), regions closed and oriented outward. A component of
+/// a chosen label left out (too small, or lost to the closing, opening, blur or manifold
+/// clean-up) is a warning "extract: label L: component of N voxels ... at (x, y, z) mm
+/// not meshed: REASON" (the first 20 in full, then a count) and a ctx.drop() record each; a
+/// chosen label left with no face at all is always a warning "extract: label L is not
+/// meshed at all ...". Counters `extract.dropped_components`,
+/// `extract.dropped_component_voxels`, `extract.filled_cavities`.
 /// Throws InputError ("input.labels: ...") when a chosen label is absent from the image,
 /// or the image has no labelled voxel.
 core::SurfaceNetwork extract(const core::LabelImage& image, const ExtractParams& params,

@@ -2,6 +2,7 @@
 
 #include "surface/extract.h"
 
+#include <cmath>
 #include <string>
 
 #include "pipeline/core/error.h"
@@ -44,6 +45,9 @@ void validate(const ExtractParams& params) {
         if (l <= 0)
             FM_THROW(InputError, "input.labels: labels must be > 0 (0 is the outside), got " +
                                      std::to_string(l));
+    if (!(std::isfinite(params.min_component_volume_mm3) && params.min_component_volume_mm3 >= 0))
+        FM_THROW(InputError, "repair.min_component_volume_mm3: must be a number >= 0, got " +
+                                 std::to_string(params.min_component_volume_mm3));
 }
 
 }  // namespace frontmesh::surface

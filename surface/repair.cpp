@@ -124,10 +124,6 @@ core::SurfaceNetwork repair(const core::SurfaceNetwork& input, const RepairParam
     std::optional<Topology> topo(std::in_place, net);
     std::optional<Shells> shells(analyse(net, *topo));
     if (remove_small_components(net, *topo, *shells, params, ctx)) {
-        if (net.face_count() == 0)
-            FM_THROW(GeometryError,
-                     "repair: every component is smaller than "
-                     "repair.min_component_volume_mm3 / min_component_faces");
         topo.emplace(net);
         shells.emplace(analyse(net, *topo));
     }

@@ -21,10 +21,16 @@ namespace frontmesh::surface {
 /// Parameters of the repair stage: member `m` is recipe key `repair.m`; default, range and
 /// unit are declared in repair_keys().
 struct RepairParams {
-    double merge_tolerance_mm = 1e-6;       ///< points closer than this are merged
-    double min_component_volume_mm3 = 1.0;  ///< closed pieces enclosing less are removed
-    std::size_t min_component_faces = 0;    ///< pieces with fewer faces are removed too
-    std::size_t max_hole_edges = 200;       ///< larger holes are an error, not filled
+    double merge_tolerance_mm = 1e-6;  ///< points closer than this are merged
+    /// Components smaller are removed: for an image, extract compares the voxel volume of
+    /// each connected component of a label (ExtractParams::min_component_volume_mm3); for a
+    /// surface, repair compares the volume each closed piece encloses.
+    double min_component_volume_mm3 = 1.0;
+    std::size_t min_component_faces = 0;  ///< pieces with fewer faces are removed too
+    /// Not a key: the recipe reader sets it when the input is an image. Extract then left
+    /// out the small components by their voxels, and repair removes none by volume.
+    bool is_from_image = false;
+    std::size_t max_hole_edges = 200;  ///< larger holes are an error, not filled
     bool fill_holes = true;
     bool check_self_intersections = true;
     bool fail_on_self_intersections = true;  ///< false: warn and go on
@@ -40,12 +46,13 @@ const core::ParamTable<RepairParams>& repair_keys();
 void validate(const RepairParams& params);
 
 /// Merges coincident points, drops degenerate and duplicate faces, removes small
-/// components, orients every face outward from region_in, fills holes up to
-/// `max_hole_edges`, splits non-manifold vertices of the outer boundary (pinches between a
-/// region and the outside; pinches inside the domain and junctions are kept, counted),
-/// detects self-intersections, and verifies that every region's boundary is closed and
-/// consistently oriented. Counts of what changed go to `ctx` counters.
-/// Throws GeometryError naming the region and the place when it cannot repair.
+/// components (each named in a warning "repair: label L: component near (x, y, z) mm not
+/// meshed: ..." and a ctx.drop() record; none when all are small), orients every face outward from
+/// region_in, fills holes up to `max_hole_edges`, splits non-manifold vertices of the outer
+/// boundary (pinches between a region and the outside; pinches inside the domain and junctions are
+/// kept, counted), detects self-intersections, and verifies that every region's boundary is closed
+/// and consistently oriented. Counts of what changed go to `ctx` counters. Throws GeometryError
+/// naming the region and the place when it cannot repair.
 core::SurfaceNetwork repair(const core::SurfaceNetwork& input, const RepairParams& params,
                             core::StageContext& ctx);
 

@@ -108,12 +108,28 @@ Shells analyse(const SurfaceNetwork& net, const Topology& topo) {
 // --- step 2: small components --------------------------------------------------------------
 
 /// Removes pieces of a region's boundary (faces connected through any of its edges) whose
-/// |volume| is below the minimum or which have too few faces; a piece goes only if each of
-/// its interface faces also lies in a removable piece of the other region. Returns whether
+/// |volume| is below the minimum (surfaces read from a file only: for an image, extract
+/// compared the voxel volumes) or which have too few faces; a piece goes only if each of
+/// its interface faces also lies in a removable piece of the other region. When that would
+/// remove every face, nothing goes: the whole input is not a speck. Each component removed
+/// is a warning naming its region and place, and a ctx.drop() record. Returns whether
 /// anything was removed.
 bool remove_small_components(SurfaceNetwork& net, const Topology& topo, const Shells& sh,
                              const RepairParams& params, core::StageContext& ctx) {
+    const bool by_volume = !params.is_from_image && params.min_component_volume_mm3 > 0.0;
     const std::size_t np = sh.pieces.size();
+    auto nothing_removed = [&](const std::string& why) {
+        ctx.count("repair.removed_components", 0);
+        ctx.count("repair.removed_component_faces", 0);
+        ctx.count("repair.removed_component_volume_mm3", 0);
+        ctx.info(why);
+        return false;
+    };
+    if (!by_volume && params.min_component_faces == 0)
+        return nothing_removed(params.is_from_image
+                                   ? "repair: small components were left out by extract, by "
+                                     "their voxel volume"
+                                   : "repair: no component limit");
     DisjointSets component(np);  // pieces joined through non-manifold edges
     for (std::size_t f = 0; f < net.face_count(); ++f)
         for (int i = 0; i < 3; ++i)
@@ -124,29 +140,27 @@ bool remove_small_components(SurfaceNetwork& net, const Topology& topo, const Sh
                                         sh.piece[static_cast<std::size_t>(side)]);
     std::vector<double> volume(np, 0.0);
     std::vector<std::size_t> faces(np, 0);
+    std::vector<Eigen::Vector3d> centre(np, Eigen::Vector3d::Zero());
     for (std::size_t p = 0; p < np; ++p) {
         const auto c = static_cast<std::size_t>(component.find(to_id(p)));
         volume[c] += std::abs(sh.pieces[p].volume);
         faces[c] += sh.pieces[p].sides;
+        centre[c] += sh.pieces[p].centroid * static_cast<double>(sh.pieces[p].sides);
     }
     std::vector<char> removable(np, 0);
     for (std::size_t p = 0; p < np; ++p)
         if (component.find(to_id(p)) == to_id(p))
-            removable[p] = volume[p] < params.min_component_volume_mm3 ||
+            removable[p] = (by_volume && volume[p] < params.min_component_volume_mm3) ||
                            faces[p] < params.min_component_faces;
-    if (std::none_of(removable.begin(), removable.end(), [](char r) { return r != 0; })) {
-        ctx.count("repair.removed_components", 0);
-        ctx.count("repair.removed_component_faces", 0);
-        ctx.count("repair.removed_component_volume_mm3", 0);
-        ctx.info("repair: no small components");
-        return false;
-    }
+    if (std::none_of(removable.begin(), removable.end(), [](char r) { return r != 0; }))
+        return nothing_removed("repair: no small components");
     const auto small = static_cast<std::size_t>(std::count(removable.begin(), removable.end(), 1));
     auto comp_of_side = [&](std::size_t side) {
         return static_cast<std::size_t>(component.find(sh.piece[side]));
     };
     // Don't tear an interface: a component stays when one of its interface faces lies in a
-    // component of the other region that stays. Repeat until nothing changes.
+    // component of the other region that stays. Repeat until nothing changes (each pass
+    // that changes something keeps one more component, so at most np + 1 passes).
     for (bool changed = true; changed;) {
         changed = false;
         for (std::size_t f = 0; f < net.face_count(); ++f) {
@@ -165,13 +179,31 @@ bool remove_small_components(SurfaceNetwork& net, const Topology& topo, const Sh
             keep[f] = 0;
             ++removed_faces;
         }
+    const std::string limit =
+        "repair.min_component_volume_mm3 = " + format_number(params.min_component_volume_mm3) +
+        " mm^3 / min_component_faces = " + std::to_string(params.min_component_faces);
+    if (removed_faces == net.face_count()) {
+        ctx.warn("repair: every component is smaller than " + limit + "; all are kept");
+        return nothing_removed("repair: no component removed");
+    }
     std::size_t removed = 0;
     double removed_volume = 0.0;
-    for (std::size_t p = 0; p < np; ++p)
-        if (removable[p]) {
-            ++removed;
-            removed_volume += volume[p];
-        }
+    constexpr std::size_t kWarned = 20;  // warning lines; the rest are counted
+    for (std::size_t p = 0; p < np; ++p) {
+        if (!removable[p]) continue;
+        ++removed;
+        removed_volume += volume[p];
+        const Eigen::Vector3d at = centre[p] / static_cast<double>(faces[p]);
+        const std::string reason = "smaller than " + limit + " (" + std::to_string(faces[p]) +
+                                   " faces enclosing " + format_number(volume[p]) + " mm^3)";
+        ctx.drop({sh.pieces[p].region, 0, {at.x(), at.y(), at.z()}, reason});
+        if (removed <= kWarned)
+            ctx.warn("repair: label " + std::to_string(sh.pieces[p].region) + ": component near " +
+                     format_point(at) + " mm not meshed: " + reason);
+    }
+    if (removed > kWarned)
+        ctx.warn("repair: " + std::to_string(removed - kWarned) +
+                 " more components not meshed (listed in summary.json, dropped_components)");
     ctx.count("repair.removed_components", static_cast<double>(removed));
     ctx.count("repair.removed_component_faces", static_cast<double>(removed_faces));
     ctx.count("repair.removed_component_volume_mm3", removed_volume);

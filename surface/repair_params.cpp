@@ -10,7 +10,9 @@ const core::ParamTable<RepairParams>& repair_keys() {
         {"repair.merge_tolerance_mm", &P::merge_tolerance_mm, "1.0e-6", core::closed(0.0, 1.0),
          "mm", "points closer than this are merged"},
         {"repair.min_component_volume_mm3", &P::min_component_volume_mm3, "1.0",
-         core::closed(0.0, 1e12), "mm^3", "closed pieces enclosing less are removed"},
+         core::closed(0.0, 1e12), "mm^3",
+         "components with fewer mm^3 of voxels (image; decided by extract) or enclosing less "
+         "(surface) are removed"},
         {"repair.min_component_faces", &P::min_component_faces, "0", core::closed(0, 1e9), "faces",
          "pieces with fewer faces are removed too; 0 = no limit"},
         // Filling is cubic in the hole size: at most 2000 edges.

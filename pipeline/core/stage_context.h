@@ -4,7 +4,9 @@
 // the sinks; a default-constructed context drops progress, log lines and diagnostics and
 // is never cancelled.
 
+#include <array>
 #include <atomic>
+#include <cstddef>
 #include <cstdint>
 #include <functional>
 #include <map>
@@ -13,6 +15,7 @@
 #include <vector>
 
 #include "pipeline/core/error.h"
+#include "pipeline/core/ids.h"
 
 namespace frontmesh::core {
 
@@ -40,6 +43,16 @@ struct Diagnostic {
         cells.push_back(std::move(ids));
         kind.push_back(cell_kind);
     }
+};
+
+/// A connected component of a chosen label that a stage did not mesh (too small, or lost to
+/// a clean-up): what summary.json lists under the stage's `dropped_components`, beside the
+/// warning that names it (issue 20: nothing labelled disappears silently).
+struct DroppedComponent {
+    Label label = 0;
+    std::size_t voxels = 0;               ///< voxel count; 0 when not known (a surface)
+    std::array<double, 3> position_mm{};  ///< centre of its voxels (or faces), mm
+    std::string reason;                   ///< one line, e.g. "smaller than KEY = 1 mm^3"
 };
 
 /// Thrown by StageContext::check_cancelled when the run was asked to stop (Ctrl-C,
@@ -74,6 +87,9 @@ public:
         warnings_.push_back(message);
         emit(LogLevel::Warning, message);
     }
+    /// Records a component the stage did not mesh (warn about it too, naming the label).
+    void drop(DroppedComponent component) { dropped_.push_back(std::move(component)); }
+
     /// Sets a named figure reported in summary.json (counts, volumes, times of sub-steps).
     void count(const std::string& name, double value) { counters_[name] = value; }
     void add(const std::string& name, double value) { counters_[name] += value; }
@@ -103,13 +119,16 @@ public:
     void merge_from(const StageContext& other) {
         for (const auto& [name, value] : other.counters_) counters_[name] += value;
         warnings_.insert(warnings_.end(), other.warnings_.begin(), other.warnings_.end());
+        dropped_.insert(dropped_.end(), other.dropped_.begin(), other.dropped_.end());
     }
 
     const std::map<std::string, double>& counters() const { return counters_; }
     const std::vector<std::string>& warnings() const { return warnings_; }
+    const std::vector<DroppedComponent>& dropped_components() const { return dropped_; }
     void clear() {
         counters_.clear();
         warnings_.clear();
+        dropped_.clear();
     }
 
 private:
@@ -123,6 +142,7 @@ private:
     const std::atomic<bool>* cancel_ = nullptr;
     std::map<std::string, double> counters_;
     std::vector<std::string> warnings_;
+    std::vector<DroppedComponent> dropped_;
 };
 
 }  // namespace frontmesh::core

@@ -283,3 +283,39 @@ TEST_CASE(
     CHECK(other.exit_code == 0);
     CHECK_THAT(other.err, Catch::Contains("[3/3] remesh"));
 }
+
+TEST_CASE("summary.json names the components not meshed and a tiny image still meshes",
+          "[pipeline]") {
+    SECTION("a one-voxel island under repair.min_component_volume_mm3") {
+        const std::string dir = fixtures::temp_dir("run_dropped_components");
+        auto image = fixtures::sphere_image(24, 6.0, 1.0, 1);
+        image.labels[image.index(20, 3, 20)] = 2;
+        fixtures::write_metaimage(image, dir + "/island.mha");
+        write_file(dir + "/recipe.yaml",
+                   "input:\n  image: island.mha\noutput:\n  dir: out\n"
+                   "repair:\n  min_component_volume_mm3: 2\n");
+        const auto r = run_frontmesh("run recipe.yaml --quiet --until repair", dir);
+        INFO(r.err);
+        REQUIRE(r.exit_code == 0);
+        const std::string summary = slurp(fs::path(dir) / "out" / "summary.json");
+        CHECK_THAT(summary, Catch::Contains("\"dropped_components\": [{\"label\": 2, "
+                                            "\"voxels\": 1, \"position_mm\": [") &&
+                                Catch::Contains("label 2 is not meshed at all"));
+        CHECK_THAT(r.err, Catch::Contains("label 2: component of 1 voxel"));
+    }
+    SECTION("2 x 2 x 2 voxels of 100 mm, three labels, through repair") {
+        const std::string dir = fixtures::temp_dir("run_tiny_cube");
+        core::LabelImage image;
+        image.dims = {2, 2, 2};
+        image.spacing = Eigen::Vector3d::Constant(100.0);
+        image.labels = {1, 1, 1, 1, 2, 2, 3, 3};
+        fixtures::write_metaimage(image, dir + "/cube.mha");
+        write_file(dir + "/recipe.yaml", "input:\n  image: cube.mha\noutput:\n  dir: out\n");
+        const auto r = run_frontmesh("run recipe.yaml --quiet --until repair", dir);
+        INFO(r.err);
+        CHECK(r.exit_code == 0);
+        CHECK_THAT(slurp(fs::path(dir) / "out" / "summary.json"),
+                   Catch::Contains("\"regions_closed\": 3") &&
+                       Catch::Contains("\"dropped_components\": []"));
+    }
+}

@@ -168,8 +168,11 @@ TEST_CASE(
     params.blur_sigma_mm = 1.5;
     const auto s = surface::extract(speck, params, speck_ctx);
     CHECK(core::region_labels(s) == std::vector<core::Label>{1});
-    REQUIRE(speck_ctx.warnings().size() == 1);
+    // The blur says so, and so does the record of components not meshed (issue 20).
+    REQUIRE(speck_ctx.warnings().size() == 3);
     CHECK(speck_ctx.warnings()[0].find("label(s) 2") != std::string::npos);
+    CHECK(speck_ctx.warnings()[1].find("label 2: component of 1 voxel") != std::string::npos);
+    CHECK(speck_ctx.warnings()[2].find("label 2 is not meshed at all") != std::string::npos);
 }
 
 TEST_CASE("extract: a torus has genus one", "[surface]") {
@@ -363,7 +366,14 @@ TEST_CASE(
     const auto s = surface::extract(image, params, ctx);
     CHECK(core::region_labels(s).size() == 116);
     CHECK(ctx.counters().at("extract.voxels_relabelled_by_blur") > 10000);
-    CHECK(ctx.warnings() == std::vector<std::string>());
+    // The blur takes a few fragments of some regions (a few voxels each): each is named
+    // (issue 20), and no region is lost whole.
+    for (const std::string& w : ctx.warnings()) {
+        CHECK_THAT(w, Catch::Contains("not meshed"));
+        CHECK_THAT(w, !Catch::Contains("not meshed at all"));
+    }
+    CHECK(ctx.counters().at("extract.dropped_components") ==
+          double(ctx.dropped_components().size()));
     require_closed_oriented_manifold(s);
 }
 
