@@ -38,6 +38,11 @@ RegionResult RegionMesher::run() {
     const std::int32_t levels = mesh_levels();
     // Closing phase for the cavities the layered front could not fill.
     const std::int64_t tets_before_closing = alive_tets_;
+    if (front_.size() > max_front_) {
+        diagnose_open_front();
+        fail("the front degenerated (more than 4 times the triangles of the region's boundary; "
+             "a layer thinner than the elements?)");
+    }
     const std::int64_t closing_rounds = close_cavities();
     // Completion path for the cavities the closing rounds leave (volume/tetra_region.cpp).
     const std::int64_t cones = front_.size() > 0 ? complete_cavities() : 0;
@@ -59,11 +64,16 @@ RegionResult RegionMesher::run() {
 /// kLevelsWithoutProgress in a row that do not, so there are at most
 /// (kLevelsWithoutProgress + 1) (F_0 + 1) levels. A level adding one tet and removing it
 /// again by local remeshing forever (a livelock) is thus ended and left to the closing phase.
+/// A front that grows past max_front_ (init_front) is degenerating (thin layers jammed by
+/// local remeshing): the loop ends there too, as does a stage (run_stage), which keeps the
+/// work proportional to the region's boundary.
 std::int32_t RegionMesher::mesh_levels() {
     constexpr std::int32_t kLevelsWithoutProgress = 16;
     std::int32_t levels = 0, since_best = 0;
     std::int64_t best = front_.size();
-    for (front_no_ = 0; front_.size() > 0 && since_best <= kLevelsWithoutProgress; ++front_no_) {
+    for (front_no_ = 0; front_.size() > 0 && since_best <= kLevelsWithoutProgress &&
+                        front_.size() <= max_front_;
+         ++front_no_) {
         sink_.check_cancelled();
         setup_level();  // §3.1.3
         const std::int64_t tets_before = static_cast<std::int64_t>(tv_.size());
@@ -122,6 +132,8 @@ void RegionMesher::init_front(const core::SurfaceNetwork& s) {
         front_.add_face(a, b, c);
     }
     remesh_budget_ = 1000 + 2 * static_cast<std::int64_t>(faces.size());
+    // a layered front shrinks as it advances; one four times its start has degenerated
+    max_front_ = 4 * static_cast<std::int64_t>(front_.size()) + 1000;
 }
 
 // ---- §3.1.3 n-th level front setup ----------------------------------------------------------
@@ -315,7 +327,7 @@ void RegionMesher::run_stage(int stage, bool allow_remesh) {
         if (!front_.is_alive(f) || front_.face(f).stamp != it.stamp || front_.has_failed(f))
             continue;
         if (!is_eligible(f, stage)) continue;
-        if (++attempts > max_attempts) break;
+        if (++attempts > max_attempts || front_.size() > max_front_) break;
         ++stat_[kBasesTried];
         if (try_base(f, stage == 2, false)) {  // steps 2-5
             ++stat_[stage == 1 ? kStage1Tets : kStage2Tets];
@@ -754,7 +766,27 @@ inline bool RegionMesher::is_valid_tet(const Base& bk, std::int32_t q,
         tet.edge_new[i] = edge_new;
     }
     const FrontView view{xyz_.data(), front_.records(), front_.max_edge()};
-    return validity_.is_valid(tet, view, near);
+    if (!validity_.is_valid(tet, view, near)) return false;
+    // A new face that is already a face of a tet lies in the meshed part (or on the input
+    // surface that tet took from the front): the candidate would overlap that tet or leave
+    // the region. The tests above see only front faces, and every intersection with that
+    // tet's faces can be at shared nodes, so they can miss it.
+    for (int i = 0; i < 3; ++i)
+        if (tet.face_new[i] && has_tet_with(q, bk.a[i], bk.a[(i + 1) % 3])) return false;
+    return true;
+}
+
+/// Whether an alive tet has the nodes a, b and c.
+bool RegionMesher::has_tet_with(std::int32_t a, std::int32_t b, std::int32_t c) const {
+    for (std::int32_t k = tet_head_[a]; k >= 0; k = tnext_[k]) {
+        const std::int32_t t = k / 4;
+        if (!talive_[t]) continue;
+        const Tet& v = tv_[t];
+        const bool hb = v[0] == b || v[1] == b || v[2] == b || v[3] == b;
+        const bool hc = v[0] == c || v[1] == c || v[2] == c || v[3] == c;
+        if (hb && hc) return true;
+    }
+    return false;
 }
 
 // ---- §3.1.4 step 5 and §3.2: adding and removing tets ----------------------------------------

@@ -150,6 +150,7 @@ private:
     std::int32_t front_no_ = 0;
     std::int64_t remeshes_ = 0;
     std::int64_t remesh_budget_ = 0;
+    std::int64_t max_front_ = 0;  // a front this large has degenerated (init_front)
     std::vector<std::int32_t> new_faces_;  // faces added by the last add/remove
     std::vector<std::int32_t> visible_faces_;
     std::vector<std::int32_t> near_faces_;  // front faces of the current base's search box
@@ -271,6 +272,7 @@ private:
     bool passes_new_edge_tests(const Base& bk, int i, const V3& P) const;
     bool passes_new_face_tests(const Base& bk, int i, std::int32_t q, const V3& P) const;
     bool is_valid_tet(const Base& bk, std::int32_t q, const std::vector<std::int32_t>& near);
+    bool has_tet_with(std::int32_t a, std::int32_t b, std::int32_t c) const;
     // step 5, §3.2
     void add_tet(std::int32_t a, std::int32_t b, std::int32_t c, std::int32_t d);
     void remove_tet(std::int32_t t);

@@ -34,6 +34,11 @@ import sys
 
 import numpy as np
 
+# vtk is imported here, once, not inside the functions: its lazy loading is not thread-safe,
+# and run.py makes cases from several threads.
+import vtk
+from vtk.util.numpy_support import numpy_to_vtk, numpy_to_vtkIdTypeArray, vtk_to_numpy
+
 FAMILIES = ["shells", "thin", "islands", "cube", "block", "hull", "nested", "mixed"]
 
 
@@ -66,8 +71,6 @@ def write_nifti(path, labels, spacing):
 
 def write_vtp(path, points, triangles, region_in, region_out):
     """Writes triangles with cell arrays region_in/region_out as VTK XML PolyData."""
-    import vtk
-    from vtk.util.numpy_support import numpy_to_vtk, numpy_to_vtkIdTypeArray
 
     pts = vtk.vtkPoints()
     pts.SetData(numpy_to_vtk(np.ascontiguousarray(points, dtype=np.float64), deep=True))
@@ -294,8 +297,6 @@ def family_mixed(rng):
 # ------------------------------------------------------------------------------ surfaces
 def hull(points):
     """Outward-oriented convex hull triangles of `points` (vtkDelaunay3D + surface)."""
-    import vtk
-    from vtk.util.numpy_support import numpy_to_vtk, vtk_to_numpy
 
     pts = vtk.vtkPoints()
     pts.SetData(numpy_to_vtk(np.ascontiguousarray(points, dtype=np.float64), deep=True))
