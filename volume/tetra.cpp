@@ -40,8 +40,9 @@ RegionResult RegionMesher::run() {
     const std::int64_t tets_before_closing = alive_tets_;
     if (front_.size() > max_front_) {
         diagnose_open_front();
-        fail("the front degenerated (more than 4 times the triangles of the region's boundary; "
-             "a layer thinner than the elements?)");
+        fail(
+            "the front degenerated (more than 4 times the triangles of the region's boundary; "
+            "a layer thinner than the elements?)");
     }
     const std::int64_t closing_rounds = close_cavities();
     // Completion path for the cavities the closing rounds leave (volume/tetra_region.cpp).
@@ -71,8 +72,8 @@ std::int32_t RegionMesher::mesh_levels() {
     constexpr std::int32_t kLevelsWithoutProgress = 16;
     std::int32_t levels = 0, since_best = 0;
     std::int64_t best = front_.size();
-    for (front_no_ = 0; front_.size() > 0 && since_best <= kLevelsWithoutProgress &&
-                        front_.size() <= max_front_;
+    for (front_no_ = 0;
+         front_.size() > 0 && since_best <= kLevelsWithoutProgress && front_.size() <= max_front_;
          ++front_no_) {
         sink_.check_cancelled();
         setup_level();  // §3.1.3

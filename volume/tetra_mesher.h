@@ -150,7 +150,7 @@ private:
     std::int32_t front_no_ = 0;
     std::int64_t remeshes_ = 0;
     std::int64_t remesh_budget_ = 0;
-    std::int64_t max_front_ = 0;  // a front this large has degenerated (init_front)
+    std::int64_t max_front_ = 0;           // a front this large has degenerated (init_front)
     std::vector<std::int32_t> new_faces_;  // faces added by the last add/remove
     std::vector<std::int32_t> visible_faces_;
     std::vector<std::int32_t> near_faces_;  // front faces of the current base's search box
