@@ -771,13 +771,17 @@ inline bool RegionMesher::is_valid_tet(const Base& bk, std::int32_t q,
     // A new face that is already a face of a tet lies in the meshed part (or on the input
     // surface that tet took from the front): the candidate would overlap that tet or leave
     // the region. The tests above see only front faces, and every intersection with that
-    // tet's faces can be at shared nodes, so they can miss it.
-    for (int i = 0; i < 3; ++i)
+    // tet's faces can be at shared nodes, so they can miss it (torture seed 24).
+    // Likewise a new edge (not on the front) that is an edge of a tet: no unmeshed space
+    // touches it.
+    for (int i = 0; i < 3; ++i) {
         if (tet.face_new[i] && has_tet_with(q, bk.a[i], bk.a[(i + 1) % 3])) return false;
+        if (tet.edge_new[i] && has_tet_with(q, bk.a[i], bk.a[i])) return false;
+    }
     return true;
 }
 
-/// Whether an alive tet has the nodes a, b and c.
+/// Whether an alive tet has the nodes a, b and c (b == c: a and b).
 bool RegionMesher::has_tet_with(std::int32_t a, std::int32_t b, std::int32_t c) const {
     for (std::int32_t k = tet_head_[a]; k >= 0; k = tnext_[k]) {
         const std::int32_t t = k / 4;
