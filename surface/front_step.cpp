@@ -145,10 +145,10 @@ bool triangles_overlap(const std::int32_t ids_a[3], const double* const x_a[3],
     if (n == 0) return core::triangles_intersect(x_a[0], x_a[1], x_a[2], x_b[0], x_b[1], x_b[2]);
     if (n == 1) {
         // Far edges against the other triangle, both ways.
-        return core::segment_intersects_triangle(x_a[(im[0] + 1) % 3], x_a[(im[0] + 2) % 3],
-                                                 x_b[0], x_b[1], x_b[2]) ||
-               core::segment_intersects_triangle(x_b[(io[0] + 1) % 3], x_b[(io[0] + 2) % 3],
-                                                 x_a[0], x_a[1], x_a[2]);
+        return core::segment_intersects_triangle(x_a[(im[0] + 1) % 3], x_a[(im[0] + 2) % 3], x_b[0],
+                                                 x_b[1], x_b[2]) ||
+               core::segment_intersects_triangle(x_b[(io[0] + 1) % 3], x_b[(io[0] + 2) % 3], x_a[0],
+                                                 x_a[1], x_a[2]);
     }
     if (n == 2) {
         // Common edge: the free vertices must not fold onto each other.
