@@ -3,6 +3,7 @@
 // named functions, one concern per file):
 //   remesh.cpp           the stage: validate, the size-field parameters from the recipe, the
 //                        driver over the steps below and one round of them
+//   remesh_coarse.cpp    small closed shells meshed by collapsing their background (issue 20)
 //   remesh_curves.cpp    curves discretised by the size field (§2 "node distribution on the
 //                        features"), patch boundary loops, a patch copied from the background
 //   remesh_retry.cpp     RetryPolicy: every size multiplier the rounds apply, in one place
@@ -168,9 +169,31 @@ std::size_t patches_with_repeated_loop_points(const PatchLoops& loops);
 
 /// The last resort for a patch whose front stalls again and again: its own background
 /// triangles, its boundary at full resolution (`loop_bg`: the background vertex of each loop
-/// point, in loop order).
+/// point, in loop order). The stage then coarsens it (coarsen_patch) with the loop points
+/// fixed; a small closed shell gets the same without any front.
 PatchMesh copy_background_patch(const core::SurfaceNetwork& bg, const Patch& patch,
                                 const std::vector<std::int32_t>& loop_bg);
+
+// --- coarse patches (remesh_coarse.cpp) ----------------------------------------------------
+
+/// Whether a closed patch (one without loops) is a shell smaller than the target edge length:
+/// its bounding box diagonal is below 2 h, h the larger of `nominal_h` (the recipe's size for
+/// its regions, before the size field's sheet and curvature limits) and the largest size at
+/// its face centroids. Such a shell (a label island of a few voxels) leaves the front no room
+/// to turn; it is meshed by coarsen_patch() instead. Cost O(patch faces).
+bool is_small_closed_patch(const BackgroundPatch& patch, const SizeFunction& size,
+                           double nominal_h);
+
+/// The coarsest valid triangulation of a patch that keeps its shape: `mesh` (its background
+/// triangles, copy_background_patch()) with edges collapsed shortest first while the result
+/// stays a 2-manifold with the same boundary (the first `fixed_points` points, the loop
+/// points, never go), no face turns against the background or overlaps another (exact
+/// test), no angle drops below min(its old value, 25 degrees), no edge exceeds 1.5 h, every
+/// removed point stays within 0.1 h of the faces that replace it and a closed patch keeps
+/// its enclosed volume within 2%. Every point remains a background vertex. Ends after at
+/// most points - 4 collapses; cost O(faces log faces) for bounded valence.
+PatchMesh coarsen_patch(const BackgroundPatch& patch, PatchMesh mesh, std::size_t fixed_points,
+                        const SizeFunction& size);
 
 // --- checks (remesh_checks.cpp) ------------------------------------------------------------
 

@@ -5,6 +5,7 @@
 
 #include <array>
 #include <cmath>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -81,6 +82,14 @@ TEST_CASE("remesh islands of 1 to 8 voxels smaller than the edge length", "[reme
                 CHECK(c.volume > 0.0);
             }
             CHECK(core::self_intersections(r.surface, 1).empty());
+            // Shells smaller than h are meshed whole at once, none left to the last resort.
+            const auto& counters = ctx.counters();
+            const auto counter = [&counters](const std::string& name) {
+                const auto it = counters.find(name);
+                return it == counters.end() ? 0.0 : it->second;
+            };
+            CHECK(counter("remesh.patches_coarse") >= 1.0);
+            CHECK(counter("remesh.patches_copied_from_background") == 0.0);
         }
     }
 }
