@@ -91,9 +91,10 @@ PatchMesh FrontMesher::run(const std::vector<PatchLoop>& loops) {
     // Work bounds, all proportional to the patch (issue 20: a 10-face patch must not cost
     // seconds). n = the triangles an equilateral mesh at the smallest size would have plus the
     // loop points (a fine loop on a small patch makes triangles of the loop's spacing).
-    //  - steps <= 20 n + 2000: every step adds a triangle, counts a failure of its edge or
-    //    remeshes locally; an edge fails at most twice before remeshing or the last resort.
-    //  - local remeshings <= n / 20 + 50 (and max_local_remesh within one place).
+    //  - steps <= 20 n + 400: every step adds a triangle, counts a failure of its edge or
+    //    remeshes locally; an edge fails at most twice before remeshing or the last resort
+    //    (a front that closes takes about 6 steps per triangle).
+    //  - local remeshings <= n / 20 + 20 (and max_local_remesh within one place).
     //  - live triangles <= 4 n + 64: a front that closes makes about n; one that makes far
     //    more winds over its own patch (thin shells, a closed shell smaller than h) and is a
     //    stall, found after O(n) steps instead of after the step limit on a huge front.
@@ -103,8 +104,8 @@ PatchMesh FrontMesher::run(const std::vector<PatchLoop>& loops) {
     // O(steps) and steps are bounded above.
     const double expected = patch_.area() / (0.43 * h_min * h_min);
     const double n = std::min(expected + static_cast<double>(xyz_.size()), 1.0e8);
-    const std::int64_t max_steps = static_cast<std::int64_t>(20.0 * n) + 2000;
-    const std::int64_t max_remeshings = static_cast<std::int64_t>(n / 20.0) + 50;
+    const std::int64_t max_steps = static_cast<std::int64_t>(20.0 * n) + 400;
+    const std::int64_t max_remeshings = static_cast<std::int64_t>(n / 20.0) + 20;
     const std::int64_t max_triangles = static_cast<std::int64_t>(4.0 * n) + 64;
     std::int64_t steps = 0;
     while (!queue_.empty()) {

@@ -8,9 +8,9 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <iterator>
 #include <limits>
-#include <cmath>
 #include <optional>
 #include <queue>
 #include <tuple>
@@ -68,7 +68,8 @@ public:
         if (closed_) {
             volume6_ = 0.0;
             const Eigen::Vector3d o = x(mesh_.faces.front()[0]);
-            for (const auto& t : mesh_.faces) volume6_ += signed_volume6(o, x(t[0]), x(t[1]), x(t[2]));
+            for (const auto& t : mesh_.faces)
+                volume6_ += signed_volume6(o, x(t[0]), x(t[1]), x(t[2]));
         }
     }
 
@@ -79,7 +80,8 @@ public:
     // and each queue entry is popped once.
     PatchMesh run() {
         for (std::size_t f = 0; f < mesh_.faces.size(); ++f)
-            for (int k = 0; k < 3; ++k) push(mesh_.faces[f][std::size_t(k)], mesh_.faces[f][std::size_t((k + 1) % 3)]);
+            for (int k = 0; k < 3; ++k)
+                push(mesh_.faces[f][std::size_t(k)], mesh_.faces[f][std::size_t((k + 1) % 3)]);
         while (!queue_.empty()) {
             const auto [length, u, v] = queue_.top();
             queue_.pop();
@@ -96,8 +98,8 @@ public:
 
 private:
     struct Plan {
-        std::int32_t u = -1, v = -1;  // u goes, v stays
-        std::vector<std::int32_t> removed;                 // faces at u
+        std::int32_t u = -1, v = -1;                     // u goes, v stays
+        std::vector<std::int32_t> removed;               // faces at u
         std::vector<std::array<std::int32_t, 3>> added;  // faces at u not at v, u -> v
         std::vector<double> added_error;
         double min_angle = 0.0;
@@ -151,7 +153,8 @@ private:
         for (const std::int32_t f : point_faces_[std::size_t(u)]) {
             const auto& t = mesh_.faces[std::size_t(f)];
             plan.removed.push_back(f);
-            old_angle = std::min(old_angle, core::triangle_min_angle_deg(x(t[0]), x(t[1]), x(t[2])));
+            old_angle =
+                std::min(old_angle, core::triangle_min_angle_deg(x(t[0]), x(t[1]), x(t[2])));
             old_error = std::max(old_error, error_[std::size_t(f)]);
             if (t[0] == v || t[1] == v || t[2] == v) {
                 for (const std::int32_t w : t)
@@ -269,7 +272,8 @@ private:
         for (std::size_t f = 0; f < mesh_.faces.size(); ++f) {
             if (!face_alive_[f]) continue;
             const auto& t = mesh_.faces[f];
-            out.faces.push_back({id[std::size_t(t[0])], id[std::size_t(t[1])], id[std::size_t(t[2])]});
+            out.faces.push_back(
+                {id[std::size_t(t[0])], id[std::size_t(t[1])], id[std::size_t(t[2])]});
             FM_CHECK(out.faces.back()[0] >= 0 && out.faces.back()[1] >= 0 &&
                      out.faces.back()[2] >= 0);
         }

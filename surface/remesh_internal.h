@@ -62,6 +62,11 @@ std::string point_text(const Eigen::Vector3d& p);
 /// A patch whose front stalls twice, or whose faces cross in three rounds, or that does
 /// either in the second-to-last round or later, keeps its background triangles from then on
 /// (copy()): the last round then changes no size, so it meets no new stall.
+/// Work of a stalling patch (issue 20): it is meshed by the front in at most 2 rounds where
+/// it stalls (then copy()), each of FrontParams::attempts attempts bounded by O(n) steps,
+/// n = expected triangles + loop points (front_triangulate.cpp), and is then coarsened
+/// (coarsen_patch, O(faces log faces)); rounds in which its sizes do not change reuse its
+/// mesh (the stage's patch cache). A closed shell smaller than h never enters the front.
 class RetryPolicy {
 public:
     /// Rounds at most: the last one reports what still fails instead of retrying.
