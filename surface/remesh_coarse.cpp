@@ -33,6 +33,8 @@ constexpr double kMaxDeviation = 0.1;
 // A closed patch keeps its enclosed volume within this fraction (sum of |change| over the
 // collapses).
 constexpr double kMaxVolumeChange = 0.02;
+// Edges longer than this times h are split first; no collapse makes one.
+constexpr double kSplitAbove = 4.0 / 3.0;
 // A collapse may not leave the kept point with more neighbours than this.
 constexpr std::size_t kMaxValence = 12;
 
@@ -79,6 +81,7 @@ public:
     // within one ring of the kept point, <= (kMaxValence + 1) * max valence per collapse),
     // and each queue entry is popped once.
     PatchMesh run() {
+        split_long_edges();
         for (std::size_t f = 0; f < mesh_.faces.size(); ++f)
             for (int k = 0; k < 3; ++k)
                 push(mesh_.faces[f][std::size_t(k)], mesh_.faces[f][std::size_t((k + 1) % 3)]);
@@ -97,6 +100,92 @@ public:
     }
 
 private:
+    // Splits edges longer than kSplitAbove h at their midpoint projected onto the background,
+    // longest first, where the four new faces face the background's way and overlap no other
+    // face (a background coarser than h: a one-voxel bridge of 0.2 x 0.2 mm section and 1 mm
+    // voxels). Boundary edges (one face: loop edges) never split. Ends: at most 4 x the
+    // initial faces splits (a count bound), each queueing at most its 4 new edges.
+    void split_long_edges() {
+        const std::size_t max_splits = 4 * mesh_.faces.size();
+        std::priority_queue<Entry> longest;
+        auto push_long = [&](std::int32_t a, std::int32_t b) {
+            if (a > b) std::swap(a, b);
+            const double length = (x(a) - x(b)).norm();
+            if (length > kSplitAbove * size_at(0.5 * (x(a) + x(b)), a))
+                longest.emplace(length, a, b);
+        };
+        for (const auto& t : mesh_.faces)
+            for (int k = 0; k < 3; ++k) push_long(t[std::size_t(k)], t[std::size_t((k + 1) % 3)]);
+        std::size_t splits = 0;
+        while (!longest.empty() && splits < max_splits) {
+            const auto [length, a, b] = longest.top();
+            longest.pop();
+            const std::optional<std::int32_t> m = split(a, b);
+            if (!m) continue;
+            ++splits;
+            for (const std::int32_t w : neighbours(*m)) push_long(*m, w);
+        }
+    }
+
+    // Splits edge ab at the background point nearest its midpoint; the new point, or nullopt
+    // when the edge is not an inner edge or a new face would be invalid.
+    std::optional<std::int32_t> split(std::int32_t a, std::int32_t b) {
+        std::vector<std::int32_t> both;  // the faces holding edge ab
+        for (const std::int32_t f : point_faces_[std::size_t(a)]) {
+            const auto& t = mesh_.faces[std::size_t(f)];
+            if (t[0] == b || t[1] == b || t[2] == b) both.push_back(f);
+        }
+        if (both.size() != 2) return std::nullopt;
+        const BackgroundPatch::Projection pr =
+            patch_.project(0.5 * (x(a) + x(b)), mesh_.point_face[std::size_t(a)]);
+        const Eigen::Vector3d& xm = pr.point;
+        // Each old face (p, q, r) with edge ab becomes two: the corner a or b replaced by m.
+        std::vector<std::array<std::int32_t, 3>> added;
+        const auto m = std::int32_t(mesh_.points.size());
+        for (const std::int32_t f : both)
+            for (const std::int32_t end : {a, b}) {
+                std::array<std::int32_t, 3> t = mesh_.faces[std::size_t(f)];
+                for (auto& w : t)
+                    if (w == end) w = m;
+                added.push_back(t);
+            }
+        auto point = [&](std::int32_t v) -> const Eigen::Vector3d& { return v == m ? xm : x(v); };
+        for (std::size_t k = 0; k < added.size(); ++k) {
+            const auto& t = added[k];
+            const Eigen::Vector3d &p = point(t[0]), &q = point(t[1]), &r = point(t[2]);
+            const Eigen::Vector3d n = (q - p).cross(r - p);
+            const double nl = n.norm();
+            const auto& o = mesh_.faces[std::size_t(both[k / 2])];
+            const Eigen::Vector3d no = (x(o[1]) - x(o[0])).cross(x(o[2]) - x(o[0]));
+            if (!(nl > 0.0) || n.dot(no) <= 0.2 * nl * no.norm()) return std::nullopt;
+            const BackgroundPatch::Projection under = patch_.project((p + q + r) / 3.0, pr.face);
+            if (n.dot(patch_.smooth_normal(under.face)) <= 0.2 * nl) return std::nullopt;
+            const double* xt[3] = {p.data(), q.data(), r.data()};
+            core::AdtBox box = core::AdtBox::of_point(p);
+            box.extend(q);
+            box.extend(r);
+            boxes_.query_box(box, hits_);
+            for (const std::int32_t g : hits_) {
+                if (g == both[0] || g == both[1]) continue;
+                const auto& og = mesh_.faces[std::size_t(g)];
+                const double* xo[3] = {x(og[0]).data(), x(og[1]).data(), x(og[2]).data()};
+                if (triangles_overlap(t.data(), xt, og.data(), xo)) return std::nullopt;
+            }
+        }
+        mesh_.points.push_back(xm);
+        mesh_.point_face.push_back(pr.face);
+        point_alive_.push_back(1);
+        point_faces_.emplace_back();
+        ++alive_points_;
+        const double error = std::max(error_[std::size_t(both[0])], error_[std::size_t(both[1])]);
+        Plan plan;
+        plan.removed = both;
+        plan.added = added;
+        plan.added_error.assign(added.size(), error);
+        replace_faces(plan);
+        return m;
+    }
+
     struct Plan {
         std::int32_t u = -1, v = -1;                     // u goes, v stays
         std::vector<std::int32_t> removed;               // faces at u
@@ -140,7 +229,7 @@ private:
     // the link condition (the common neighbours of u and v are exactly the far corners of
     // their two faces, so the result stays a 2-manifold), a closed patch down to 4 points,
     // a new face degenerate, turned against its old face or the background under it, worse in
-    // angle than min(kept, kKeepAngleDeg), with an edge longer than 1.5 h, overlapping
+    // angle than min(kept, kKeepAngleDeg), with an edge longer than kSplitAbove h, overlapping
     // another face, or u farther from the new faces than kMaxDeviation h; and the volume.
     std::optional<Plan> plan_collapse(std::int32_t u, std::int32_t v) const {
         if (std::size_t(u) < fixed_) return std::nullopt;
@@ -198,7 +287,7 @@ private:
             for (int e = 0; e < 3; ++e) {
                 const Eigen::Vector3d& p = x(t[std::size_t(e)]);
                 const Eigen::Vector3d& q = x(t[std::size_t((e + 1) % 3)]);
-                if ((p - q).norm() > 1.5 * size_at(0.5 * (p + q), t[std::size_t(e)]))
+                if ((p - q).norm() > kSplitAbove * size_at(0.5 * (p + q), t[std::size_t(e)]))
                     return std::nullopt;
             }
             deviation = std::min(deviation, (closest_point_on_triangle(xu, a, b, c) - xu).norm());
@@ -233,6 +322,19 @@ private:
     }
 
     void apply(const Plan& plan) {
+        replace_faces(plan);
+        point_alive_[std::size_t(plan.u)] = 0;
+        --alive_points_;
+        volume6_changed_ += std::abs(plan.volume6_change);
+        // The faces changed at v and its neighbours: their edges may collapse now.
+        for (const std::int32_t w : neighbours(plan.v)) {
+            push(plan.v, w);
+            for (const std::int32_t z : neighbours(w)) push(w, z);
+        }
+    }
+
+    // The plan's removed faces out, its added faces in (incidences and boxes kept).
+    void replace_faces(const Plan& plan) {
         for (const std::int32_t f : plan.removed) {
             face_alive_[std::size_t(f)] = 0;
             boxes_.remove(f);
@@ -248,14 +350,6 @@ private:
             error_.push_back(plan.added_error[k]);
             for (const std::int32_t w : plan.added[k]) point_faces_[std::size_t(w)].push_back(f);
             boxes_.insert(f, box_of(plan.added[k]));
-        }
-        point_alive_[std::size_t(plan.u)] = 0;
-        --alive_points_;
-        volume6_changed_ += std::abs(plan.volume6_change);
-        // The faces changed at v and its neighbours: their edges may collapse now.
-        for (const std::int32_t w : neighbours(plan.v)) {
-            push(plan.v, w);
-            for (const std::int32_t z : neighbours(w)) push(w, z);
         }
     }
 

@@ -190,13 +190,15 @@ bool is_small_closed_patch(const BackgroundPatch& patch, const SizeFunction& siz
                            double nominal_h);
 
 /// The coarsest valid triangulation of a patch that keeps its shape: `mesh` (its background
-/// triangles, copy_background_patch()) with edges collapsed shortest first while the result
-/// stays a 2-manifold with the same boundary (the first `fixed_points` points, the loop
-/// points, never go), no face turns against the background or overlaps another (exact
-/// test), no angle drops below min(its old value, 25 degrees), no edge exceeds 1.5 h, every
-/// removed point stays within 0.1 h of the faces that replace it and a closed patch keeps
-/// its enclosed volume within 2%. Every point remains a background vertex. Ends after at
-/// most points - 4 collapses; cost O(faces log faces) for bounded valence.
+/// triangles, copy_background_patch()) with inner edges longer than 4/3 h split at the
+/// background point nearest their midpoint (at most 4 x faces splits), then edges collapsed
+/// shortest first while the result stays a 2-manifold with the same boundary (the first
+/// `fixed_points` points, the loop points, never go), no face turns against the background
+/// or overlaps another (exact test), no angle drops below min(its old value, 25 degrees), no
+/// edge exceeds 4/3 h, every removed point stays within 0.1 h of the faces that replace it
+/// and a closed patch keeps its enclosed volume within 2%. Every point lies on the
+/// background. Ends after at most points - 4 collapses; cost O(faces log faces) for bounded
+/// valence.
 PatchMesh coarsen_patch(const BackgroundPatch& patch, PatchMesh mesh, std::size_t fixed_points,
                         const SizeFunction& size);
 
