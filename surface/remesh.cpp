@@ -166,10 +166,14 @@ std::vector<std::optional<FrontStall>> mesh_patches(const core::SurfaceNetwork& 
             cache.contexts[p] = ctx.child();
             try {
                 const Patch& patch = features.patches[p];
-                if (retry.copy(p)) {
-                    cache.meshes[p] = coarsen_patch(cache.patches[p],
-                                                    copy_background_patch(bg, patch, loops.bg[p]),
-                                                    loops.bg[p].size(), size_function);
+                if (retry.copy(p) && !patch.loops.empty()) {
+                    // Bounded by curves, it lies beside other patches, often across a thin
+                    // layer: its background triangles stay as they are (a coarsened or split
+                    // copy crossed its neighbours after smoothing, torture seed 24).
+                    cache.meshes[p] = copy_background_patch(bg, patch, loops.bg[p]);
+                } else if (retry.copy(p)) {
+                    cache.meshes[p] = coarsen_patch(
+                        cache.patches[p], copy_background_patch(bg, patch, {}), 0, size_function);
                 } else if (patch.loops.empty() &&
                            is_small_closed_patch(cache.patches[p], size_function,
                                                  cache.nominal_h[p])) {
@@ -243,9 +247,9 @@ void report_patches(const Features& features, const PatchCache& cache, const Ret
     if (copied > 0)
         ctx.warn("remesh: " + std::to_string(copied) + " patch(es)" + places +
                  (copied > 4 ? "; ...)" : ")") + ", " + std::to_string(copied_faces) +
-                 " faces, keep their background triangles (coarsened and smoothed only): the front "
-                 "stalled "
-                 "there twice or late, or faces crossed three times");
+                 " faces, keep their background triangles (smoothed only; closed ones split and "
+                 "coarsened): the front stalled there twice or late, or faces crossed three "
+                 "times");
     for (std::size_t p = 0; p < np; ++p) {
         for (const auto& [name, value] : cache.contexts[p].counters()) round_sums[name] += value;
         record_logged_warnings(ctx, cache.contexts[p]);

@@ -174,8 +174,8 @@ std::size_t patches_with_repeated_loop_points(const PatchLoops& loops);
 
 /// The last resort for a patch whose front stalls again and again: its own background
 /// triangles, its boundary at full resolution (`loop_bg`: the background vertex of each loop
-/// point, in loop order). The stage then coarsens it (coarsen_patch) with the loop points
-/// fixed; a small closed shell gets the same without any front.
+/// point, in loop order). A closed patch (no loops) is then brought towards h by
+/// coarsen_patch; a small closed shell gets the same without any front.
 PatchMesh copy_background_patch(const core::SurfaceNetwork& bg, const Patch& patch,
                                 const std::vector<std::int32_t>& loop_bg);
 
