@@ -4,6 +4,8 @@
 
 #include "surface/front_mesher.h"
 
+#include "surface/front_internal.h"
+
 #include <limits>
 
 #include "pipeline/core/error.h"
@@ -126,6 +128,43 @@ bool FrontMesher::sector_ok_at_c(std::int32_t a, std::int32_t b, std::int32_t c,
     return end < limit - min_gap_;
 }
 
+}  // namespace frontmesh::surface::front_detail
+
+namespace frontmesh::surface {
+
+bool triangles_overlap(const std::int32_t ids_a[3], const double* const x_a[3],
+                       const std::int32_t ids_b[3], const double* const x_b[3]) {
+    int im[3], io[3], n = 0;  // positions of shared vertices
+    for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j)
+            if (ids_a[i] >= 0 && ids_a[i] == ids_b[j]) {
+                im[n] = i;
+                io[n] = j;
+                ++n;
+            }
+    if (n == 0) return core::triangles_intersect(x_a[0], x_a[1], x_a[2], x_b[0], x_b[1], x_b[2]);
+    if (n == 1) {
+        // Far edges against the other triangle, both ways.
+        return core::segment_intersects_triangle(x_a[(im[0] + 1) % 3], x_a[(im[0] + 2) % 3], x_b[0],
+                                                 x_b[1], x_b[2]) ||
+               core::segment_intersects_triangle(x_b[(io[0] + 1) % 3], x_b[(io[0] + 2) % 3], x_a[0],
+                                                 x_a[1], x_a[2]);
+    }
+    if (n == 2) {
+        // Common edge: the free vertices must not fold onto each other.
+        const int fm = 3 - im[0] - im[1], fo = 3 - io[0] - io[1];
+        if (core::orient3d(x_a[im[0]], x_a[im[1]], x_a[fm], x_b[fo]) != 0) return false;
+        // Coplanar: overlap unless the free vertices lie on opposite sides of the edge.
+        return core::segment_intersects_triangle(x_a[fm], x_a[fm], x_b[0], x_b[1], x_b[2]) ||
+               core::segment_intersects_triangle(x_b[fo], x_b[fo], x_a[0], x_a[1], x_a[2]);
+    }
+    return true;  // the same triangle again
+}
+
+}  // namespace frontmesh::surface
+
+namespace frontmesh::surface::front_detail {
+
 // Exact 3-D test of the new triangle (a, b, c) (c = -1: a new point at xc) against every live
 // triangle whose box meets its box: true when they share a point other than their common
 // vertices (with one common vertex: the far edge of one meets the other; with a common edge:
@@ -145,39 +184,7 @@ bool FrontMesher::crosses_mesh(std::int32_t a, std::int32_t b, std::int32_t c,
         const double* po[3] = {xyz_[static_cast<std::size_t>(o[0])].data(),
                                xyz_[static_cast<std::size_t>(o[1])].data(),
                                xyz_[static_cast<std::size_t>(o[2])].data()};
-        int im[3], io[3], n = 0;  // positions of shared vertices
-        for (int i = 0; i < 3; ++i)
-            for (int j = 0; j < 3; ++j)
-                if (mine[i] >= 0 && mine[i] == o[static_cast<std::size_t>(j)]) {
-                    im[n] = i;
-                    io[n] = j;
-                    ++n;
-                }
-        if (n == 0) {
-            if (core::triangles_intersect(pm[0], pm[1], pm[2], po[0], po[1], po[2])) return true;
-        } else if (n == 1) {
-            // Far edges against the other triangle, both ways.
-            const double* m0 = pm[(im[0] + 1) % 3];
-            const double* m1 = pm[(im[0] + 2) % 3];
-            const double* o0 = po[(io[0] + 1) % 3];
-            const double* o1 = po[(io[0] + 2) % 3];
-            if (core::segment_intersects_triangle(m0, m1, po[0], po[1], po[2]) ||
-                core::segment_intersects_triangle(o0, o1, pm[0], pm[1], pm[2]))
-                return true;
-        } else if (n == 2) {
-            // Common edge: the free vertices must not fold onto each other.
-            const int fm = 3 - im[0] - im[1], fo = 3 - io[0] - io[1];
-            const double* e0 = pm[im[0]];
-            const double* e1 = pm[im[1]];
-            if (core::orient3d(e0, e1, pm[fm], po[fo]) == 0) {
-                // Coplanar: overlap unless the free vertices lie on opposite sides of the edge.
-                if (core::segment_intersects_triangle(pm[fm], pm[fm], po[0], po[1], po[2]) ||
-                    core::segment_intersects_triangle(po[fo], po[fo], pm[0], pm[1], pm[2]))
-                    return true;
-            }
-        } else {
-            return true;  // the same triangle again
-        }
+        if (triangles_overlap(mine, pm, o.data(), po)) return true;
     }
     return false;
 }

@@ -88,21 +88,37 @@ PatchMesh FrontMesher::run(const std::vector<PatchLoop>& loops) {
         }
         for (const Eigen::Vector3d& p : xyz_) h_min = std::min(h_min, size_(p, face_[0]));
     }
+    // Work bounds, all proportional to the patch (issue 20: a 10-face patch must not cost
+    // seconds). n = the triangles an equilateral mesh at the smallest size would have plus the
+    // loop points (a fine loop on a small patch makes triangles of the loop's spacing).
+    //  - steps <= 20 n + 400: every step adds a triangle, counts a failure of its edge or
+    //    remeshes locally; an edge fails at most twice before remeshing or the last resort
+    //    (a front that closes takes about 6 steps per triangle).
+    //  - local remeshings <= n / 20 + 20 (and max_local_remesh within one place).
+    //  - live triangles <= 4 n + 64: a front that closes makes about n; one that makes far
+    //    more winds over its own patch (thin shells, a closed shell smaller than h) and is a
+    //    stall, found after O(n) steps instead of after the step limit on a huge front.
+    // The loop below ends: each pass pops one queue entry; an entry is pushed when an edge is
+    // made (at most 3 per triangle made or removed, triangles removed <= triangles made <= 24
+    // per step) or once per counted step (a failure, a put-back, a remeshing), so the pops are
+    // O(steps) and steps are bounded above.
     const double expected = patch_.area() / (0.43 * h_min * h_min);
-    const std::int64_t max_steps =
-        static_cast<std::int64_t>(std::min(20.0 * expected, 4.0e9)) + 100000;
-    const std::int64_t max_remeshings =
-        static_cast<std::int64_t>(std::min(expected / 20.0, 1.0e8)) + 1000;
+    const double n = std::min(expected + static_cast<double>(xyz_.size()), 1.0e8);
+    const std::int64_t max_steps = static_cast<std::int64_t>(20.0 * n) + 400;
+    const std::int64_t max_remeshings = static_cast<std::int64_t>(n / 20.0) + 20;
+    const std::int64_t max_triangles = static_cast<std::int64_t>(4.0 * n) + 64;
     std::int64_t steps = 0;
     while (!queue_.empty()) {
         const QueueEntry top = queue_.top();
         queue_.pop();
         FrontEdge& fe = edges_[static_cast<std::size_t>(top.edge)];
         if (!fe.alive || fe.fails != top.fails) continue;
-        if (++steps > max_steps) {
+        if (++steps > max_steps || live_triangles_ > max_triangles) {
             const Eigen::Vector3d& xa = xyz_[static_cast<std::size_t>(fe.a)];
-            const std::string why = "remesh: the front does not close (step limit) near " +
-                                    where(xa) + " (" + front_state() + ")";
+            const std::string why =
+                "remesh: the front does not close (" +
+                std::string(live_triangles_ > max_triangles ? "triangle" : "step") +
+                " limit) near " + where(xa) + " (" + front_state() + ")";
             hand_over_stall(xa, 8.0, why);
             throw FrontStall(why, xa, __FILE__, __LINE__, __func__);
         }

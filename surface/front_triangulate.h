@@ -94,8 +94,9 @@ struct FrontParams {
     /// the smallest angle of its triangles grows. Loop points never move.
     int smoothing_iterations = 0;
     /// Local remeshings within two edge lengths of one place before MeshingError (the removed
-    /// region grows with each). The whole patch also stops after area / (0.43 h_min^2) / 20
-    /// + 1000 remeshings or 20x that many steps.
+    /// region grows with each). With n = area / (0.43 h_min^2) + loop points, the whole patch
+    /// also stops after n / 20 + 20 remeshings, 20 n + 400 steps or 4 n + 64 live triangles
+    /// (work proportional to the patch, front_triangulate.cpp).
     int max_local_remesh = 50;
     /// Attempts per patch: when the front cannot be closed, the patch starts again with the
     /// sizes scaled by 0.85 (and, without loops, from another seed face). >= 1.

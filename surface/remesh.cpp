@@ -98,8 +98,12 @@ struct PatchCache {
     std::vector<core::StageContext> contexts;  // of the last meshing: counters and warnings
     std::vector<std::vector<PatchLoop>> meshed_loops;
     std::vector<std::uint8_t> meshed, meshed_copy;
+    // The recipe's size for each patch (remesh.edge_length resolved, or the smaller size of
+    // its two regions' labels): what tells a shell smaller than h (is_small_closed_patch).
+    std::vector<double> nominal_h;
 
-    PatchCache(const core::SurfaceNetwork& bg, const Features& features) {
+    PatchCache(const core::SurfaceNetwork& bg, const Features& features,
+               const SizeFieldParams& sp) {
         const std::size_t np = features.patches.size();
         patches.reserve(np);
         for (const auto& p : features.patches) patches.emplace_back(bg, p.faces, false);
@@ -115,6 +119,14 @@ struct PatchCache {
         meshed_loops.resize(np);
         meshed.assign(np, 0);
         meshed_copy.assign(np, 0);
+        nominal_h.assign(np, sp.edge_length);
+        for (std::size_t p = 0; p < np; ++p)
+            for (const core::Label label :
+                 {features.patches[p].region_in, features.patches[p].region_out}) {
+                const auto it = sp.label_edge_length.find(label);
+                if (it != sp.label_edge_length.end())
+                    nominal_h[p] = std::min(nominal_h[p], it->second);
+            }
     }
 };
 
@@ -153,11 +165,25 @@ std::vector<std::optional<FrontStall>> mesh_patches(const core::SurfaceNetwork& 
             cache.meshed[p] = 0;
             cache.contexts[p] = ctx.child();
             try {
-                if (retry.copy(p))
-                    cache.meshes[p] = copy_background_patch(bg, features.patches[p], loops.bg[p]);
-                else
+                const Patch& patch = features.patches[p];
+                if (retry.copy(p) && !patch.loops.empty()) {
+                    // Bounded by curves, it lies beside other patches, often across a thin
+                    // layer: its background triangles stay as they are (a coarsened or split
+                    // copy crossed its neighbours after smoothing, torture seed 24).
+                    cache.meshes[p] = copy_background_patch(bg, patch, loops.bg[p]);
+                } else if (retry.copy(p)) {
+                    cache.meshes[p] = coarsen_patch(
+                        cache.patches[p], copy_background_patch(bg, patch, {}), 0, size_function);
+                } else if (patch.loops.empty() &&
+                           is_small_closed_patch(cache.patches[p], size_function,
+                                                 cache.nominal_h[p])) {
+                    cache.meshes[p] = coarsen_patch(
+                        cache.patches[p], copy_background_patch(bg, patch, {}), 0, size_function);
+                    cache.contexts[p].add("remesh.patches_coarse", 1.0);
+                } else {
                     cache.meshes[p] = triangulate_patch(cache.patches[p], loops.loops[p],
                                                         size_function, fp, cache.contexts[p]);
+                }
                 cache.meshed[p] = 1;
                 cache.meshed_copy[p] = retry.copy(p);
                 cache.meshed_loops[p] = loops.loops[p];
@@ -221,8 +247,9 @@ void report_patches(const Features& features, const PatchCache& cache, const Ret
     if (copied > 0)
         ctx.warn("remesh: " + std::to_string(copied) + " patch(es)" + places +
                  (copied > 4 ? "; ...)" : ")") + ", " + std::to_string(copied_faces) +
-                 " faces, keep their background triangles (smoothed only): the front stalled "
-                 "there twice or late, or faces crossed three times");
+                 " faces, keep their background triangles (smoothed only; closed ones split and "
+                 "coarsened): the front stalled there twice or late, or faces crossed three "
+                 "times");
     for (std::size_t p = 0; p < np; ++p) {
         for (const auto& [name, value] : cache.contexts[p].counters()) round_sums[name] += value;
         record_logged_warnings(ctx, cache.contexts[p]);
@@ -479,7 +506,7 @@ RemeshResult remesh(const core::SurfaceNetwork& bg, const RemeshParams& params,
     // Rounds: meshed again finer where a round fails (bounded by RetryPolicy::kRounds; the
     // last round reports what still fails).
     RetryPolicy retry(bg, size, features.patches.size());
-    PatchCache cache(bg, features);
+    PatchCache cache(bg, features, sp);
     Rounds rounds{bg, params, features, retry, cache, clock, ctx};
     RoundResult last;
     for (int round = 0; round < RetryPolicy::kRounds; ++round) {

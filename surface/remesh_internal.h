@@ -3,6 +3,7 @@
 // named functions, one concern per file):
 //   remesh.cpp           the stage: validate, the size-field parameters from the recipe, the
 //                        driver over the steps below and one round of them
+//   remesh_coarse.cpp    small closed shells meshed by collapsing their background (issue 20)
 //   remesh_curves.cpp    curves discretised by the size field (§2 "node distribution on the
 //                        features"), patch boundary loops, a patch copied from the background
 //   remesh_retry.cpp     RetryPolicy: every size multiplier the rounds apply, in one place
@@ -61,6 +62,11 @@ std::string point_text(const Eigen::Vector3d& p);
 /// A patch whose front stalls twice, or whose faces cross in three rounds, or that does
 /// either in the second-to-last round or later, keeps its background triangles from then on
 /// (copy()): the last round then changes no size, so it meets no new stall.
+/// Work of a stalling patch (issue 20): it is meshed by the front in at most 2 rounds where
+/// it stalls (then copy()), each of FrontParams::attempts attempts bounded by O(n) steps,
+/// n = expected triangles + loop points (front_triangulate.cpp), and is then coarsened
+/// (coarsen_patch, O(faces log faces)); rounds in which its sizes do not change reuse its
+/// mesh (the stage's patch cache). A closed shell smaller than h never enters the front.
 class RetryPolicy {
 public:
     /// Rounds at most: the last one reports what still fails instead of retrying.
@@ -168,9 +174,33 @@ std::size_t patches_with_repeated_loop_points(const PatchLoops& loops);
 
 /// The last resort for a patch whose front stalls again and again: its own background
 /// triangles, its boundary at full resolution (`loop_bg`: the background vertex of each loop
-/// point, in loop order).
+/// point, in loop order). A closed patch (no loops) is then brought towards h by
+/// coarsen_patch; a small closed shell gets the same without any front.
 PatchMesh copy_background_patch(const core::SurfaceNetwork& bg, const Patch& patch,
                                 const std::vector<std::int32_t>& loop_bg);
+
+// --- coarse patches (remesh_coarse.cpp) ----------------------------------------------------
+
+/// Whether a closed patch (one without loops) is a shell smaller than the target edge length:
+/// its bounding box diagonal is below 2 h, h the larger of `nominal_h` (the recipe's size for
+/// its regions, before the size field's sheet and curvature limits) and the largest size at
+/// its face centroids. Such a shell (a label island of a few voxels) leaves the front no room
+/// to turn; it is meshed by coarsen_patch() instead. Cost O(patch faces).
+bool is_small_closed_patch(const BackgroundPatch& patch, const SizeFunction& size,
+                           double nominal_h);
+
+/// The coarsest valid triangulation of a patch that keeps its shape: `mesh` (its background
+/// triangles, copy_background_patch()) with inner edges longer than 4/3 h split at the
+/// background point nearest their midpoint (at most 4 x faces splits), then edges collapsed
+/// shortest first while the result stays a 2-manifold with the same boundary (the first
+/// `fixed_points` points, the loop points, never go), no face turns against the background
+/// or overlaps another (exact test), no angle drops below min(its old value, 25 degrees), no
+/// edge exceeds 4/3 h, every removed point stays within 0.1 h of the faces that replace it
+/// and a closed patch keeps its enclosed volume within 2%. Every point lies on the
+/// background. Ends after at most points - 4 collapses; cost O(faces log faces) for bounded
+/// valence.
+PatchMesh coarsen_patch(const BackgroundPatch& patch, PatchMesh mesh, std::size_t fixed_points,
+                        const SizeFunction& size);
 
 // --- checks (remesh_checks.cpp) ------------------------------------------------------------
 
