@@ -122,11 +122,13 @@ void RegionMesher::fill_relaxed() {
 // cover each point as often as the faces wind around it, once inside the cavity and never
 // outside. A cavity that is not star-shaped from P is made so as Bowyer-Watson makes a
 // Delaunay cavity: while a face does not see P, the tet behind it joins the cavity. Each step
-// removes one tet of the region, so the growth ends; it fails only where a face that does not
-// see P has no tet behind it (the input surface, or another cavity) and then changes nothing.
-// Candidate points: the Chebyshev centre of the cavity's face planes (the kernel's centre,
-// volume/cavity_kernel.h, when the kernel is not empty), the mean of the face centres, and a
-// point over the largest face. Each cone tet still passes the exact validity test.
+// removes one tet of the region, so the growth ends; a cavity it reaches joins it. It fails
+// only where a face that does not see P has no tet behind it (the input surface), or past a
+// size limit, and then changes nothing. Candidate points: the Chebyshev centre of the kernel
+// of the faces the growth cannot pass (volume/cavity_kernel.h), that of all the cavity's
+// faces, the mean of the face centres, and a point over the largest face. Each cone tet still
+// passes the exact validity test. Not every cavity is filled: one that wraps around an island
+// (a shell around an inner boundary) is star-shaped from no point.
 
 /// At most this many completion rounds per region: a round tries every cavity once; a cavity
 /// that fails grows by a ring of tets before the next round. The count of rounds is the bound.
