@@ -56,6 +56,35 @@ std::string bad_edge_place(const core::SurfaceNetwork& out, const EdgeTable& et,
            ", faces of patches" + patches + ")";
 }
 
+// Parts of a region's boundary turned inside out (core::inverted_parts): the two sides of a
+// region thinner than h, each met by its own front on the same few curve points, crossed
+// through each other; every edge is in order, so only the winding shows it (torture seed
+// 12). Meshed again finer there, or with the background's triangles (on_bad_faces).
+void check_inverted_parts(const core::SurfaceNetwork& out,
+                          const std::vector<std::int32_t>& face_patch, bool last_round, int round,
+                          RetryPolicy& retry, core::StageContext& ctx, RegionChecks& result) {
+    const std::vector<core::InvertedPart> inverted = core::inverted_parts(out);
+    ctx.count("remesh.inverted_parts", double(inverted.size()));
+    if (inverted.empty()) return;
+    const core::InvertedPart& first = inverted.front();
+    if (last_round)
+        FM_THROW(GeometryError, "remesh: region " + std::to_string(first.region) +
+                                    ": a part of its boundary is turned inside out near " +
+                                    point_text(first.place) + " (patch " +
+                                    std::to_string(face_patch[std::size_t(first.faces.front())]) +
+                                    "); try a smaller remesh.edge_length there");
+    std::vector<std::int32_t> faces;
+    for (const core::InvertedPart& part : inverted)
+        faces.insert(faces.end(), part.faces.begin(), part.faces.end());
+    retry.on_bad_faces(faces, out, face_patch, round);
+    ctx.warn("remesh: " + std::to_string(inverted.size()) +
+             " part(s) of region boundaries turned inside out (e.g. region " +
+             std::to_string(first.region) + " near " + point_text(first.place) +
+             "); meshing again finer there");
+    retry.note(std::to_string(inverted.size()) + " boundary parts were turned inside out");
+    result.again = true;
+}
+
 }  // namespace
 
 RegionChecks check_regions(const core::SurfaceNetwork& bg, const core::SurfaceNetwork& out,
@@ -119,6 +148,7 @@ RegionChecks check_regions(const core::SurfaceNetwork& bg, const core::SurfaceNe
             }
         }
     }
+    if (!result.again) check_inverted_parts(out, face_patch, last_round, round, retry, ctx, result);
     if (!result.rescaled.empty()) {
         retry.update_vertex_scales();
         retry.note("regions" + result.rescaled + " changed their volume");
@@ -150,7 +180,9 @@ bool mend_self_intersections(core::SurfaceNetwork& out, const std::vector<double
         // the closer they follow the background, which does not intersect. A patch whose
         // faces still cross after two rounds of finer sizes (two sheets meeting in a cusp
         // along a curve) keeps its background triangles instead.
-        retry.on_crossings(pairs, out, face_patch, round);
+        std::vector<std::int32_t> faces;
+        for (const auto& [f, g] : pairs) faces.insert(faces.end(), {f, g});
+        retry.on_bad_faces(faces, out, face_patch, round);
         ctx.warn(
             "remesh: " + std::to_string(pairs.size()) +
             " pairs of faces intersect after smoothing; meshing again with half the size there");

@@ -100,13 +100,13 @@ public:
     /// Edges of a region that is not a closed 2-manifold (two patches joined the same two
     /// curve points by an inner edge): a shrink site at each midpoint.
     void on_open_edges(const std::vector<Eigen::Vector3d>& midpoints);
-    /// Faces f, g of each pair intersect after smoothing (`face_patch` of the output):
-    /// patches crossed in a third round keep their background triangles, the other faces
-    /// get a shrink site at their centroid. From the second-to-last round (`round`, 0-based)
-    /// on, every crossed patch keeps its background triangles.
-    void on_crossings(const std::vector<std::pair<std::int32_t, std::int32_t>>& pairs,
-                      const core::SurfaceNetwork& out, const std::vector<std::int32_t>& face_patch,
-                      int round);
+    /// Faces of `out` that are wrong after smoothing (`face_patch` of the output): faces of
+    /// intersecting pairs, or of a boundary part turned inside out. Patches found so in a
+    /// third round keep their background triangles, the other faces get a shrink site at
+    /// their centroid. From the second-to-last round (`round`, 0-based) on, every such patch
+    /// keeps its background triangles (which are right: the background is checked).
+    void on_bad_faces(const std::vector<std::int32_t>& faces, const core::SurfaceNetwork& out,
+                      const std::vector<std::int32_t>& face_patch, int round);
     /// The region's enclosed volume changed by `change_percent` (> `limit_percent`): the
     /// volume scale of its patches' faces drops by clamp(0.9 sqrt(limit / |change|), 0.5,
     /// 0.9). The vertex scales follow at update_vertex_scales().
@@ -206,12 +206,14 @@ PatchMesh coarsen_patch(const BackgroundPatch& patch, PatchMesh mesh, std::size_
 
 /// Outcome of the region checks of a round.
 struct RegionChecks {
-    bool again = false;    ///< a region is not a closed 2-manifold: mesh again finer there
+    bool again = false;    ///< a region is not a closed 2-manifold, or a part of it turned
+                           ///< inside out: mesh again finer there
     std::string rescaled;  ///< regions refined for their volume change: " R (x %)" each
 };
 
-/// Every region of `out` must be a closed, oriented 2-manifold (else shrink sites and again,
-/// or in the last round GeometryError naming the place) and keep its enclosed volume within
+/// Every region of `out` must be a closed, oriented 2-manifold with no part turned inside out
+/// (else shrink sites or background triangles and again, or in the last round GeometryError
+/// naming the place) and keep its enclosed volume within
 /// remesh.max_volume_change_percent (else its patches are refined, or in the last round a
 /// warning). Counters `remesh.volume_change_percent.region_*` go to ctx.
 RegionChecks check_regions(const core::SurfaceNetwork& bg, const core::SurfaceNetwork& out,

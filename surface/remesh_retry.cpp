@@ -80,24 +80,22 @@ void RetryPolicy::on_open_edges(const std::vector<Eigen::Vector3d>& midpoints) {
     for (const Eigen::Vector3d& m : midpoints) add_shrink_site(m, 2.0);
 }
 
-void RetryPolicy::on_crossings(const std::vector<std::pair<std::int32_t, std::int32_t>>& pairs,
+void RetryPolicy::on_bad_faces(const std::vector<std::int32_t>& faces,
                                const core::SurfaceNetwork& out,
                                const std::vector<std::int32_t>& face_patch, int round) {
-    std::set<std::int32_t> crossed;
-    for (const auto& [f, g] : pairs)
-        for (const std::int32_t face : {f, g}) crossed.insert(face_patch[std::size_t(face)]);
+    std::set<std::int32_t> bad;
+    for (const std::int32_t face : faces) bad.insert(face_patch[std::size_t(face)]);
     // As for stalls: from the second-to-last round on, finer sizes would be tried in the last
-    // round, where a stall they cause is the error; the crossed patches are copied instead.
-    for (const std::int32_t q : crossed)
+    // round, where a stall they cause is the error; the bad patches are copied instead.
+    for (const std::int32_t q : bad)
         if (++patch_crossings_[std::size_t(q)] >= 3 || round + 2 >= kRounds)
             copy_patch_[std::size_t(q)] = 1;
-    for (const auto& [f, g] : pairs)
-        for (const std::int32_t face : {f, g}) {
-            if (copy_patch_[std::size_t(face_patch[std::size_t(face)])]) continue;
-            const auto& t = out.faces[std::size_t(face)];
-            const Eigen::Vector3d c = (out.point(t[0]) + out.point(t[1]) + out.point(t[2])) / 3.0;
-            add_shrink_site(c, 2.0);
-        }
+    for (const std::int32_t face : faces) {
+        if (copy_patch_[std::size_t(face_patch[std::size_t(face)])]) continue;
+        const auto& t = out.faces[std::size_t(face)];
+        const Eigen::Vector3d c = (out.point(t[0]) + out.point(t[1]) + out.point(t[2])) / 3.0;
+        add_shrink_site(c, 2.0);
+    }
 }
 
 void RetryPolicy::on_volume_change(const Features& features, core::Label region,

@@ -118,6 +118,17 @@ void require_closed_regions(const SurfaceNetwork& s, const std::string& source) 
 void require_meshable_surface(const SurfaceNetwork& surface, const std::string& source) {
     require_valid_faces(surface, source);
     require_closed_regions(surface, source);
+    if (const auto inverted = inverted_parts(surface); !inverted.empty()) {
+        const InvertedPart& part = inverted.front();
+        std::ostringstream w;
+        w.precision(3);
+        w << part.winding;
+        defect(source, "region " + std::to_string(part.region) + ": a part of its boundary (" +
+                           std::to_string(part.faces.size()) + " faces, e.g. face " +
+                           std::to_string(part.faces.front()) + ") is turned inside out " +
+                           near(part.place) + ": the region's winding number behind it is " +
+                           w.str() + ", not 1 (its faces must point out of region_in)");
+    }
     const auto pairs = self_intersections(surface, 1);
     if (!pairs.empty()) {
         const auto [f, g] = pairs.front();

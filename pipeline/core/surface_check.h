@@ -14,7 +14,8 @@ namespace frontmesh::core {
 /// vertex or of zero area (exact predicate); a region boundary that is open (an edge with an
 /// odd number of the region's faces) or misoriented (its faces do not alternate in
 /// direction around an edge, or the region encloses a non-positive volume: faces must point
-/// out of region_in); two faces that intersect (core::self_intersections). Even numbers of
+/// out of region_in); a part of a region's boundary turned inside out (core::inverted_parts);
+/// two faces that intersect (core::self_intersections). Even numbers of
 /// faces around an edge are accepted (2^q, §3: regions touching along an edge).
 /// Cost: O(n log n), dominated by the self-intersection search (about 2 s per million faces).
 void require_meshable_surface(const SurfaceNetwork& surface, const std::string& source);

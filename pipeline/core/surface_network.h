@@ -72,4 +72,22 @@ struct RegionBoundaryCheck {
 /// Faces of an interface count for both regions (reversed for region_out).
 std::vector<RegionBoundaryCheck> check_region_boundaries(const SurfaceNetwork& surface);
 
+/// A part of a region's boundary (its faces joined through edges) that is turned inside out.
+struct InvertedPart {
+    Label region = 0;
+    std::vector<std::int32_t> faces;  ///< the part's faces, increasing
+    Eigen::Vector3d place;            ///< just on the region's side of its largest face, mm
+    double winding = 0.0;             ///< the region's winding number there (1 if it were right)
+};
+
+/// The parts of each region's boundary that are turned inside out: where a region has two or
+/// more parts, each must have the region on its inner side, so the region's winding number
+/// just behind the part's largest face (towards region_in) is 1. A part of a thin region
+/// whose two sides crossed through each other (remesh of a sliver, or a user's surface)
+/// encloses the region's own volume with the wrong sign while every edge is in order, which
+/// check_region_boundaries does not see (a hole is a part with negative volume and passes).
+/// Cost O(F + P^2) for P parts: each part's winding counts only its own faces and those of the
+/// parts whose bounding box holds the point.
+std::vector<InvertedPart> inverted_parts(const SurfaceNetwork& surface);
+
 }  // namespace frontmesh::core

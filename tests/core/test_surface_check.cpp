@@ -28,6 +28,21 @@ SurfaceNetwork two_shells() {
     return a;
 }
 
+// Octahedron `inner` (radius r at the origin) added to `s` with the given regions; reversed
+// when `reversed` (its right-hand normals point into it).
+void add_octahedron(SurfaceNetwork& s, double r, const Eigen::Vector3d& at,
+                    frontmesh::core::Label in, frontmesh::core::Label out, bool reversed) {
+    const SurfaceNetwork b = frontmesh::fixtures::octahedron(r);
+    const auto offset = static_cast<std::int32_t>(s.vertex_count());
+    for (std::size_t v = 0; v < b.vertex_count(); ++v) s.add_vertex(b.point(std::int32_t(v)) + at);
+    for (const auto& t : b.faces) {
+        if (reversed)
+            s.add_face(t[0] + offset, t[2] + offset, t[1] + offset, in, out);
+        else
+            s.add_face(t[0] + offset, t[1] + offset, t[2] + offset, in, out);
+    }
+}
+
 void require_defect(const SurfaceNetwork& s, const std::string& words) {
     CHECK_THROWS_AS(require_meshable_surface(s, "in.vtp"), InputError);
     CHECK_THROWS_WITH(require_meshable_surface(s, "in.vtp"),
@@ -40,6 +55,33 @@ TEST_CASE("a closed, oriented, clean surface network is meshable", "[core][surfa
     CHECK_NOTHROW(require_meshable_surface(frontmesh::fixtures::octahedron(2.0), "in.vtp"));
     CHECK_NOTHROW(require_meshable_surface(two_shells(), "in.vtp"));
     CHECK_NOTHROW(require_meshable_surface(frontmesh::fixtures::uv_sphere(3.0, 12), "in.vtp"));
+    // Holes: a part of region 1 with negative volume inside its outer part, filled by region
+    // 2 or empty (its faces point into the hole, out of region 1).
+    SurfaceNetwork filled = frontmesh::fixtures::octahedron(2.0);
+    add_octahedron(filled, 0.5, Eigen::Vector3d::Zero(), 2, 1, false);
+    CHECK_NOTHROW(require_meshable_surface(filled, "in.vtp"));
+    SurfaceNetwork empty = frontmesh::fixtures::octahedron(2.0);
+    add_octahedron(empty, 0.5, Eigen::Vector3d::Zero(), 1, 0, true);
+    CHECK_NOTHROW(require_meshable_surface(empty, "in.vtp"));
+}
+
+TEST_CASE("a part of a region turned inside out is a defect though every edge is in order",
+          "[core][surface_check]") {
+    // Region 1: a large octahedron and, beside it, a small one whose faces point into it
+    // (the two sides of a thin piece crossed through each other): the total volume is
+    // positive and every edge alternates, but the region's winding number is 0 behind the
+    // small part's faces.
+    SurfaceNetwork s = frontmesh::fixtures::octahedron(2.0);
+    add_octahedron(s, 0.5, Eigen::Vector3d(5.0, 0.0, 0.0), 1, 0, true);
+    require_defect(s, "turned inside out");
+    CHECK_THROWS_WITH(require_meshable_surface(s, "in.vtp"),
+                      Contains("region 1") && Contains("mm"));
+    const auto parts = frontmesh::core::inverted_parts(s);
+    REQUIRE(parts.size() == 1);
+    CHECK(parts[0].faces.size() == 8);
+    CHECK(parts[0].faces.front() == 8);
+    CHECK(std::abs(parts[0].winding) < 0.01);
+    CHECK(parts[0].place.x() > 4.0);
 }
 
 TEST_CASE("each defect of a user's surface is named with its region and place",

@@ -230,7 +230,7 @@ TEST_CASE("the retry policy owns every size multiplier of the rounds", "[remesh]
     late.on_stall(0, place, surface::remesh_detail::RetryPolicy::kRounds - 2);
     CHECK(late.copy(0));
     surface::remesh_detail::RetryPolicy crossed(bg, field, 1);
-    crossed.on_crossings({{0, 1}}, bg, {0, 0}, surface::remesh_detail::RetryPolicy::kRounds - 2);
+    crossed.on_bad_faces({0, 1}, bg, {0, 0}, surface::remesh_detail::RetryPolicy::kRounds - 2);
     CHECK(crossed.copy(0));
 
     // A region that lost 20% of its volume against a 10% limit: x 0.9 sqrt(1/2); a change
