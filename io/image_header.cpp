@@ -766,6 +766,14 @@ void check_metaimage(const std::string& path, const std::string& file, const Hea
         return;
     }
     if (compressed) {
+        // MetaIO reads compressed data after the header as garbage, silently, when it is not
+        // told its size (a 16^3 cube became 88 labels); its own writer always writes it.
+        if (local && !value_of({"CompressedDataSize"}))
+            header.fail(
+                "CompressedDataSize is missing; compressed data in the file itself needs "
+                "it (MetaIO reads it as garbage without)");
+        if (const auto size = value_of({"CompressedDataSize"}))
+            header.integer(size->first, size->second, 1, std::int64_t{1} << 50);
         // MetaIO allocates the whole image before it inflates: inflate once here to count.
         check_data_size(path, what, inflated_bytes(data_file, start, bytes), bytes,
                         "that its MetaImage header announces once decompressed " + announced);
@@ -1014,12 +1022,13 @@ void check_image_memory(const std::string& path, const std::string& field,
         std::ostringstream size;
         size.precision(3);
         size << gib;
-        FM_THROW(InputError, image_prefix(path) + field + " " + join(extents, " x ") + " is " +
-                                 number_text(voxels) + " voxels, about " + size.str() +
-                                 " GiB to read (" + std::to_string(voxel_bytes) +
-                                 " bytes per voxel in the file and " + std::to_string(label_bytes) +
-                                 " per label), more than input.max_image_gib = " +
-                                 number_text(max_image_gib) + " (raise it to read this image)");
+        FM_THROW(InputError,
+                 image_prefix(path) + field + " " + join(extents, " x ") + " is " +
+                     number_text(voxels) + " voxels, about " + size.str() + " GiB to read (" +
+                     std::to_string(voxel_bytes) + (voxel_bytes == 1 ? " byte" : " bytes") +
+                     " per voxel in the file and " + std::to_string(label_bytes) +
+                     " per label), more than input.max_image_gib = " + number_text(max_image_gib) +
+                     " (raise it to read this image)");
     }
 }
 

@@ -893,7 +893,8 @@ TEST_CASE("the memory an image takes is estimated from its header and limited", 
     write_bytes(path, with_line(read_bytes(path), "DimSize", "DimSize = 1024 1024 1024"));
     // 2^30 voxels x (1 byte + 4 bytes of label) = 5 GiB.
     check_refused(path, ImageReadOptions{}, path,
-                  {"DimSize 1024 x 1024 x 1024", "about 5 GiB", "input.max_image_gib = 4"});
+                  {"DimSize 1024 x 1024 x 1024", "about 5 GiB", "(1 byte per voxel",
+                   "input.max_image_gib = 4"});
     ImageReadOptions raised;
     raised.max_image_gib = 6.0;
     check_refused(path, raised, dir + "/big.raw", {"truncated", "1073741824"});
@@ -944,6 +945,11 @@ TEST_CASE("compressed and text data are counted against the header before alloca
         const std::string bytes = read_bytes(path);
         write_bytes(path, bytes.substr(0, bytes.size() - 20));  // a damaged stream
         check_refused(path, ImageReadOptions{}, path, {"truncated", "once decompressed"});
+        // Without its size MetaIO read the data after the header as garbage (88 labels).
+        const auto size_at = bytes.find("\nCompressedDataSize");
+        REQUIRE(size_at != std::string::npos);
+        write_bytes(path, bytes.substr(0, size_at) + bytes.substr(bytes.find('\n', size_at + 1)));
+        check_refused(path, ImageReadOptions{}, path, {"CompressedDataSize is missing"});
     }
     SECTION("NRRD gzip, and ascii text") {
         const std::string path = dir + "/labels.nrrd";
