@@ -102,7 +102,8 @@ void check_data_size(const std::string& path, const std::string& what, std::uint
                                  " bytes " + because);
 }
 
-/// Bytes of `extents` voxels of `bytes` each; called after check_voxel_count, so no overflow.
+/// Bytes of `extents` voxels of `bytes` each; called after check_image_memory, which bounds
+/// the product (input.max_image_gib is at most 2^16 GiB), so no overflow.
 std::uint64_t data_bytes(const std::vector<std::uint64_t>& extents, std::uint64_t bytes) {
     std::uint64_t total = bytes;
     for (std::uint64_t e : extents) total *= e;
@@ -161,6 +162,7 @@ struct NiftiHeader {
     int version = 1;          // 1 (or Analyze when !is_nifti), 2
     bool is_nifti = true;     // magic "n+1"/"ni1"/"n+2"/"ni2"; Analyze 7.5 has none
     bool single_file = true;  // magic "n+1"/"n+2": data in the same file after the header
+    bool swap = false;        // byte order opposite to this machine's
     std::int64_t rank = 0;
     std::array<std::int64_t, 8> dim{};
     int datatype = 0;
@@ -230,6 +232,7 @@ NiftiHeader read_nifti_header(const std::string& path, const std::string& file) 
         FM_THROW(InputError, where + "sizeof_hdr is " + std::to_string(size_host) +
                                  "; expected 348 (NIfTI-1) or 540 (NIfTI-2)");
     const bool swap = size_host != 348 && size_host != 540;
+    n.swap = swap;
     n.version = (swap ? size_swapped : size_host) == 540 ? 2 : 1;
     n.size = n.version == 2 ? 540 : 348;
     if (got < static_cast<int>(n.size))
@@ -285,25 +288,136 @@ double nifti_unit_mm(int xyz_units) {
     }
 }
 
-/// Bytes of the data stream of `file` (decompressing it when gzip), counting at most `limit`.
-std::uint64_t stream_bytes(const std::string& file, std::uint64_t limit) {
-    if (!ends_with_nocase(file, ".gz")) return file_size_of(file);
+/// Receives the bytes of a data stream from a given offset on, in order, in chunks.
+using ByteVisitor = std::function<void(const unsigned char*, std::size_t)>;
+
+/// Bytes of the data stream of `file` (decompressing it when gzip), counting at most `limit`;
+/// when `visit` is set, the bytes from offset `from` up to `limit` are handed to it in order.
+std::uint64_t stream_bytes(const std::string& file, std::uint64_t limit, std::uint64_t from = 0,
+                           const ByteVisitor& visit = {}) {
+    const bool gzip = ends_with_nocase(file, ".gz");
+    if (!gzip && !visit) return file_size_of(file);
+    std::vector<unsigned char> chunk(std::size_t{1} << 20);
+    std::uint64_t present = 0;
+    // Hands [present, present + got) to `visit`, the part at or after `from`.
+    auto deliver = [&](std::uint64_t got) {
+        if (visit && present + got > from) {
+            const std::uint64_t skip = from > present ? from - present : 0;
+            visit(chunk.data() + skip, static_cast<std::size_t>(got - skip));
+        }
+        present += got;
+    };
+    if (!gzip) {
+        std::ifstream in(file, std::ios::binary);
+        if (!in) return 0;
+        in.seekg(static_cast<std::streamoff>(std::min(from, limit)));
+        present = std::min(from, limit);
+        // Bound: each pass reads at least one byte of a finite file, or stops.
+        while (present < limit) {
+            const auto want = std::min<std::uint64_t>(chunk.size(), limit - present);
+            in.read(reinterpret_cast<char*>(chunk.data()), static_cast<std::streamsize>(want));
+            const auto got = in.gcount();
+            if (got <= 0) break;
+            deliver(static_cast<std::uint64_t>(got));
+        }
+        return std::min(present, file_size_of(file));
+    }
     const std::unique_ptr<gzFile_s, int (*)(gzFile)> stream(gzopen(file.c_str(), "rb"), gzclose);
     if (!stream) return 0;
     gzbuffer(stream.get(), 1u << 17);
-    std::vector<unsigned char> chunk(1u << 20);
-    std::uint64_t present = 0;
+    // Bound: each pass inflates at least one byte, at most `limit` in all, or stops.
     while (present < limit) {
         const auto want =
             static_cast<unsigned>(std::min<std::uint64_t>(chunk.size(), limit - present));
         const int got = gzread(stream.get(), chunk.data(), want);
         if (got <= 0) break;
-        present += static_cast<std::uint64_t>(got);
+        deliver(static_cast<std::uint64_t>(got));
     }
     return present;
 }
 
-void check_nifti(const std::string& path, const std::string& file, bool check_spacing_values) {
+/// Bytes a zlib or gzip stream (detected from its first bytes) that starts at byte `offset`
+/// of `file` inflates to, counting at most `limit`; a damaged stream counts up to the damage.
+/// MetaImage CompressedData is zlib, NRRD "encoding: gzip" is gzip; both may follow a header.
+std::uint64_t inflated_bytes(const std::string& file, std::uint64_t offset, std::uint64_t limit) {
+    std::ifstream in(file, std::ios::binary);
+    if (!in) return 0;
+    in.seekg(static_cast<std::streamoff>(offset));
+    z_stream z{};
+    if (inflateInit2(&z, 15 + 32) != Z_OK) return 0;  // 15 + 32: zlib or gzip header
+    std::vector<unsigned char> input(std::size_t{1} << 16);
+    std::vector<unsigned char> output(std::size_t{1} << 20);
+    std::uint64_t produced = 0;
+    int status = Z_OK;
+    // Bound: with input and output space inflate consumes or produces at least one byte, or
+    // returns an error; input is a finite file and output stops at `limit`.
+    while (produced < limit && status == Z_OK) {
+        if (z.avail_in == 0) {
+            in.read(reinterpret_cast<char*>(input.data()),
+                    static_cast<std::streamsize>(input.size()));
+            const auto got = in.gcount();
+            if (got <= 0) break;
+            z.next_in = input.data();
+            z.avail_in = static_cast<uInt>(got);
+        }
+        z.next_out = output.data();
+        z.avail_out = static_cast<uInt>(output.size());
+        status = inflate(&z, Z_NO_FLUSH);
+        produced += output.size() - z.avail_out;
+    }
+    inflateEnd(&z);
+    return produced;
+}
+
+/// Counts the NaN and inf values among float32 or float64 voxels handed over in chunks of any
+/// size (a value split between two chunks is carried over), and keeps the first one.
+class NonFiniteScan {
+public:
+    NonFiniteScan(std::uint64_t value_bytes, bool swap) : value_bytes_(value_bytes), swap_(swap) {}
+
+    void add(const unsigned char* data, std::size_t size) {
+        // Bound: each pass takes at least one byte of `size`.
+        while (size > 0) {
+            const std::size_t take = std::min<std::size_t>(size, value_bytes_ - carried_);
+            std::memcpy(carry_.data() + carried_, data, take);
+            carried_ += take;
+            data += take;
+            size -= take;
+            if (carried_ < value_bytes_) break;
+            carried_ = 0;
+            const double v = value_bytes_ == 4 ? field<float>(carry_.data(), 0, swap_)
+                                               : field<double>(carry_.data(), 0, swap_);
+            if (!std::isfinite(v)) {
+                if (count_ == 0) {
+                    first_index_ = index_;
+                    first_value_ = v;
+                }
+                ++count_;
+            }
+            ++index_;
+        }
+    }
+    std::uint64_t count() const { return count_; }
+    std::uint64_t first_index() const { return first_index_; }
+    double first_value() const { return first_value_; }
+
+private:
+    std::uint64_t value_bytes_;
+    bool swap_;
+    std::array<unsigned char, 8> carry_{};
+    std::size_t carried_ = 0;
+    std::uint64_t index_ = 0;
+    std::uint64_t count_ = 0;
+    std::uint64_t first_index_ = 0;
+    double first_value_ = 0.0;
+};
+
+/// "nan", "inf" or "-inf", whatever the sign bit of a NaN.
+std::string non_finite_text(double value) {
+    return std::isnan(value) ? "nan" : value > 0 ? "inf" : "-inf";
+}
+
+void check_nifti(const std::string& path, const std::string& file, const HeaderLimits& limits) {
     const auto files = nifti_files(file);
     if (!files) return;
     if (files->header != file) require_regular_file(path, files->header, "NIfTI header file");
@@ -326,20 +440,24 @@ void check_nifti(const std::string& path, const std::string& file, bool check_sp
                  "; every extent must be at least 1");
         extents.push_back(static_cast<std::uint64_t>(n.dim[d]));
     }
-    check_voxel_count(path, "NIfTI header: dim[1.." + std::to_string(n.rank) + "]", extents);
     const std::uint64_t voxel_bytes = nifti_datatype_bytes(n.datatype);
     if (voxel_bytes == 0)
         fail("datatype " + std::to_string(n.datatype) +
              " is not a NIfTI voxel type frontmesh reads");
+    check_image_memory(path, "NIfTI header: dim[1.." + std::to_string(n.rank) + "]", extents,
+                       voxel_bytes, limits.max_image_gib);
 
-    if (check_spacing_values) {
-        // ITK takes the magnitude (a negative pixdim flips nothing) in the header's unit.
+    if (limits.check_spacing) {
+        // In the header's unit, as ITK scales it. NIfTI requires pixdim[1..3] > 0; niftilib
+        // replaces a negative one by 1 in the qform and ITK takes its magnitude elsewhere, so
+        // a negative one is refused like a zero one rather than guessed at.
         const double unit = nifti_unit_mm(n.xyz_units);
         for (int d = 1; d <= std::min<std::int64_t>(n.rank, 3); ++d)
             check_spacing(path, "NIfTI header: pixdim[" + std::to_string(d) + "]",
-                          std::abs(n.pixdim[d]) * unit);
+                          n.pixdim[d] * unit);
     }
-    if (!std::isfinite(n.vox_offset) || n.vox_offset < 0.0)
+    // 2^53: beyond it the float field holds no exact byte offset, and no file is that long.
+    if (!(n.vox_offset >= 0.0 && n.vox_offset <= 9007199254740992.0))
         fail("vox_offset is " + number_text(n.vox_offset) + "; it must be a byte offset >= 0");
 
     if (n.is_nifti) {
@@ -349,11 +467,16 @@ void check_nifti(const std::string& path, const std::string& file, bool check_sp
             static const char* const names[] = {"quatern_b", "quatern_c", "quatern_d",
                                                 "qoffset_x", "qoffset_y", "qoffset_z"};
             for (int i = 0; i < 6; ++i) finite(names[i], n.quatern[i]);
+            for (int i = 3; i < 6; ++i)
+                check_origin(path, std::string("NIfTI header: ") + names[i], n.quatern[i]);
         }
         if (n.sform_code > 0) {
             static const char* const rows[] = {"srow_x", "srow_y", "srow_z"};
             for (int i = 0; i < 12; ++i)
                 finite(std::string(rows[i / 4]) + "[" + std::to_string(i % 4) + "]", n.srow[i]);
+            for (int r = 0; r < 3; ++r)
+                check_origin(path, std::string("NIfTI header: ") + rows[r] + "[3]",
+                             n.srow[4 * r + 3]);
             std::array<std::array<double, 3>, 3> columns{};
             for (int r = 0; r < 3; ++r)
                 for (int c = 0; c < 3; ++c) columns[c][r] = n.srow[4 * r + c];
@@ -373,9 +496,28 @@ void check_nifti(const std::string& path, const std::string& file, bool check_sp
     std::uint64_t start = static_cast<std::uint64_t>(n.vox_offset);
     if (same_file) start = std::max<std::uint64_t>(start, n.version == 2 ? 544 : 352);
     const std::uint64_t needed = start + data_bytes(extents, voxel_bytes);
-    const std::uint64_t present = stream_bytes(files->data, needed);
+    // niftilib sets every NaN and inf float voxel to 0 before ITK sees it, so they are
+    // counted here, in the pass that counts the bytes (datatypes 16 and 64, one volume).
+    const bool is_float = n.datatype == 16 || n.datatype == 64;
+    const bool one_volume = std::all_of(extents.begin() + std::min<std::ptrdiff_t>(3, n.rank),
+                                        extents.end(), [](std::uint64_t e) { return e == 1; });
+    NonFiniteScan scan(voxel_bytes, n.swap);
+    const std::uint64_t present =
+        is_float && one_volume ? stream_bytes(files->data, needed, start,
+                                              [&scan](const unsigned char* data, std::size_t size) {
+                                                  scan.add(data, size);
+                                              })
+                               : stream_bytes(files->data, needed);
     check_data_size(path, same_file ? "" : "NIfTI data file '" + files->data + "' ", present,
                     needed, "its NIfTI header announces (dim, datatype, vox_offset)");
+    if (scan.count() > 0) {
+        const std::uint64_t nx = extents[0];
+        const std::uint64_t ny = extents.size() > 1 ? extents[1] : 1;
+        const std::uint64_t first = scan.first_index();
+        FM_THROW(InputError,
+                 non_finite_voxels_message(path, non_finite_text(scan.first_value()), first % nx,
+                                           first / nx % ny, first / (nx * ny), scan.count()));
+    }
 }
 
 // ---------------------------------------------------------------------------------------
@@ -517,7 +659,7 @@ std::string beside(const std::string& header_file, const std::string& name) {
     return (fs::path(header_file).parent_path() / p).string();
 }
 
-void check_metaimage(const std::string& path, const std::string& file, bool check_spacing_values) {
+void check_metaimage(const std::string& path, const std::string& file, const HeaderLimits& limits) {
     const TextHeader header(path, file, "MetaImage");
     std::ifstream in(file, std::ios::binary);
     if (!in) header.fail("the file cannot be opened");
@@ -552,22 +694,28 @@ void check_metaimage(const std::string& path, const std::string& file, bool chec
     if (const auto channels = value_of({"ElementNumberOfChannels"}))
         counted.push_back(static_cast<std::uint64_t>(
             header.integer(channels->first, channels->second, 1, 1 << 16)));
-    check_voxel_count(path, "MetaImage header: DimSize", counted);
-
     const std::string type = required("ElementType");
     const std::uint64_t voxel_bytes = meta_type_bytes(type);
     if (voxel_bytes == 0) header.fail("ElementType '" + type + "' is not a MetaImage voxel type");
+    check_image_memory(path, "MetaImage header: DimSize", counted, voxel_bytes,
+                       limits.max_image_gib);
 
     if (const auto spacing = value_of({"ElementSpacing", "ElementSize"})) {
         const auto values = header.numbers(spacing->first, spacing->second, ndims);
-        if (check_spacing_values)
+        if (limits.check_spacing)
             for (std::size_t d = 0; d < std::min<std::size_t>(ndims, 3); ++d)
                 check_spacing(
                     path, "MetaImage header: " + spacing->first + " value " + std::to_string(d + 1),
                     values[d]);
     }
-    if (const auto origin = value_of({"Offset", "Position", "Origin"}))
-        header.require_finite(origin->first, header.numbers(origin->first, origin->second, ndims));
+    if (const auto origin = value_of({"Offset", "Position", "Origin"})) {
+        const auto values = header.numbers(origin->first, origin->second, ndims);
+        header.require_finite(origin->first, values);
+        for (std::size_t d = 0; d < values.size(); ++d)
+            check_origin(path,
+                         "MetaImage header: " + origin->first + " value " + std::to_string(d + 1),
+                         values[d]);
+    }
     if (const auto matrix = value_of({"TransformMatrix", "Rotation", "Orientation"})) {
         const auto values = header.numbers(matrix->first, matrix->second, ndims * ndims);
         header.require_finite(matrix->first, values);
@@ -603,14 +751,36 @@ void check_metaimage(const std::string& path, const std::string& file, bool chec
     const bool local = data_name == "LOCAL" || data_name == "Local" || data_name == "local";
     const std::string data_file = local ? file : beside(file, data_name);
     if (!local) require_regular_file(path, data_file, "data file (ElementDataFile)");
-    if (compressed || !binary) return;
 
     const std::uint64_t bytes = data_bytes(counted, voxel_bytes);
     const std::uint64_t start =
         local ? header_end : static_cast<std::uint64_t>(std::max<std::int64_t>(header_size, 0));
+    const std::string what = local ? "" : "data file '" + data_file + "' (ElementDataFile) ";
+    const std::string announced = "(DimSize " + join(extents, " ") + " of " + type + ")";
+    if (!binary) {
+        // Text voxels: at least one digit and one separator each, but for the last.
+        const std::uint64_t present =
+            file_size_of(data_file) - std::min(start, file_size_of(data_file));
+        check_data_size(path, what, present, 2 * data_bytes(counted, 1) - 1,
+                        "of text that its MetaImage header announces at least " + announced);
+        return;
+    }
+    if (compressed) {
+        // MetaIO reads compressed data after the header as garbage, silently, when it is not
+        // told its size (a 16^3 cube became 88 labels); its own writer always writes it.
+        if (local && !value_of({"CompressedDataSize"}))
+            header.fail(
+                "CompressedDataSize is missing; compressed data in the file itself needs "
+                "it (MetaIO reads it as garbage without)");
+        if (const auto size = value_of({"CompressedDataSize"}))
+            header.integer(size->first, size->second, 1, std::int64_t{1} << 50);
+        // MetaIO allocates the whole image before it inflates: inflate once here to count.
+        check_data_size(path, what, inflated_bytes(data_file, start, bytes), bytes,
+                        "that its MetaImage header announces once decompressed " + announced);
+        return;
+    }
     check_data_size(
-        path, local ? "" : "data file '" + data_file + "' (ElementDataFile) ",
-        file_size_of(data_file), start + bytes,
+        path, what, file_size_of(data_file), start + bytes,
         "its MetaImage header announces (DimSize " + join(extents, " ") + " of " + type +
             (start > 0 ? " after " + std::to_string(start) + " header bytes" : "") + ")");
 }
@@ -693,7 +863,7 @@ std::vector<std::optional<std::vector<double>>> nrrd_vectors(const std::string& 
     return vectors;
 }
 
-void check_nrrd(const std::string& path, const std::string& file, bool check_spacing_values) {
+void check_nrrd(const std::string& path, const std::string& file, const HeaderLimits& limits) {
     const TextHeader header(path, file, "NRRD");
     std::ifstream in(file, std::ios::binary);
     if (!in) header.fail("the file cannot be opened");
@@ -732,8 +902,6 @@ void check_nrrd(const std::string& path, const std::string& file, bool check_spa
         static_cast<std::size_t>(header.integer(dimension_name, dimension_value, 1, 16));
     const auto [sizes_name, sizes_value] = required("sizes");
     const std::vector<std::uint64_t> extents = header.extents(sizes_name, sizes_value, dimension);
-    check_voxel_count(path, "NRRD header: sizes", extents);
-
     const auto [type_name, type_value] = required("type");
     std::string type;
     {
@@ -743,12 +911,13 @@ void check_nrrd(const std::string& path, const std::string& file, bool check_spa
     const std::uint64_t voxel_bytes = nrrd_type_bytes(type);
     if (voxel_bytes == 0)
         header.fail("type '" + type_value + "' is not a NRRD voxel type frontmesh reads");
+    check_image_memory(path, "NRRD header: sizes", extents, voxel_bytes, limits.max_image_gib);
 
     // A NaN spacing means "unknown" in NRRD, which ITK turns into 1 mm: refused like any other
     // spacing outside the range, for the three axes of a scalar volume.
     if (const auto* spacings = value_of("spacings")) {
         const auto values = header.numbers(spacings->first, spacings->second, dimension);
-        if (check_spacing_values && dimension == 3)
+        if (limits.check_spacing && dimension == 3)
             for (std::size_t d = 0; d < 3; ++d)
                 check_spacing(path, "NRRD header: spacings value " + std::to_string(d + 1),
                               values[d]);
@@ -765,7 +934,7 @@ void check_nrrd(const std::string& path, const std::string& file, bool check_spa
             if (v->size() == 3) spatial.push_back({(*v)[0], (*v)[1], (*v)[2]});
         }
         if (spatial.size() == 3) {
-            for (std::size_t d = 0; d < 3 && check_spacing_values; ++d)
+            for (std::size_t d = 0; d < 3 && limits.check_spacing; ++d)
                 check_spacing(
                     path,
                     "NRRD header: " + directions->first + " vector " + std::to_string(d + 1) +
@@ -780,6 +949,9 @@ void check_nrrd(const std::string& path, const std::string& file, bool check_spa
         if (vectors.size() != 1 || !vectors.front())
             header.fail(origin->first + " '" + origin->second + "' is not one (x,y,z) vector");
         header.require_finite(origin->first, *vectors.front());
+        for (std::size_t d = 0; d < vectors.front()->size(); ++d)
+            check_origin(path, "NRRD header: " + origin->first + " value " + std::to_string(d + 1),
+                         (*vectors.front())[d]);
     }
 
     std::int64_t byte_skip = 0;
@@ -798,13 +970,30 @@ void check_nrrd(const std::string& path, const std::string& file, bool check_spa
         data_file = beside(file, data->second);
         require_regular_file(path, data_file, "data file");
     }
-    if (encoding != "raw") return;
     const bool attached = data_file == file;
-    const std::uint64_t start = (attached ? header_end : 0) +
-                                static_cast<std::uint64_t>(std::max<std::int64_t>(byte_skip, 0));
-    check_data_size(path, attached ? "" : "data file '" + data_file + "' ", file_size_of(data_file),
-                    start + data_bytes(extents, voxel_bytes),
-                    "its NRRD header announces (sizes " + join(extents, " ") + " of " + type + ")");
+    const std::string what = attached ? "" : "data file '" + data_file + "' ";
+    const std::string announced = "(sizes " + join(extents, " ") + " of " + type + ")";
+    const std::uint64_t skip = static_cast<std::uint64_t>(std::max<std::int64_t>(byte_skip, 0));
+    const std::uint64_t bytes = data_bytes(extents, voxel_bytes);
+    const std::uint64_t header_bytes = attached ? std::min(header_end, file_size_of(file)) : 0;
+    if (encoding == "raw") {
+        check_data_size(path, what, file_size_of(data_file), header_bytes + skip + bytes,
+                        "its NRRD header announces " + announced);
+    } else if (encoding == "gzip" || encoding == "gz") {
+        // teem allocates the whole image before it inflates: inflate once here to count
+        // (a byte skip applies to the decompressed data).
+        check_data_size(path, what, inflated_bytes(data_file, header_bytes, skip + bytes),
+                        skip + bytes,
+                        "that its NRRD header announces once decompressed " + announced);
+    } else if (encoding == "ascii" || encoding == "text" || encoding == "txt") {
+        // At least one digit and one separator per voxel, but for the last.
+        check_data_size(path, what, file_size_of(data_file) - header_bytes,
+                        2 * data_bytes(extents, 1) - 1,
+                        "of text that its NRRD header announces at least " + announced);
+    } else if (encoding == "hex") {
+        check_data_size(path, what, file_size_of(data_file) - header_bytes, 2 * bytes,
+                        "of hex digits that its NRRD header announces at least " + announced);
+    }
 }
 
 }  // namespace
@@ -822,14 +1011,43 @@ void require_regular_file(const std::string& path, const std::string& file,
                  image_prefix(path) + which + "is " + kind_of(status) + ", not a regular file");
 }
 
-void check_voxel_count(const std::string& path, const std::string& field,
-                       const std::vector<std::uint64_t>& extents) {
+void check_image_memory(const std::string& path, const std::string& field,
+                        const std::vector<std::uint64_t>& extents, std::uint64_t voxel_bytes,
+                        double max_image_gib) {
     double voxels = 1.0;
     for (std::uint64_t e : extents) voxels *= static_cast<double>(e);
-    if (voxels > static_cast<double>(max_image_voxels))
-        FM_THROW(InputError, image_prefix(path) + field + " " + join(extents, " x ") + " is " +
-                                 number_text(voxels) + " voxels; frontmesh reads at most " +
-                                 std::to_string(max_image_voxels) + " (2^30)");
+    const double per_voxel = static_cast<double>(voxel_bytes + label_bytes);
+    const double gib = voxels * per_voxel / static_cast<double>(std::uint64_t{1} << 30);
+    if (!(gib <= max_image_gib)) {
+        std::ostringstream size;
+        size.precision(3);
+        size << gib;
+        FM_THROW(InputError,
+                 image_prefix(path) + field + " " + join(extents, " x ") + " is " +
+                     number_text(voxels) + " voxels, about " + size.str() + " GiB to read (" +
+                     std::to_string(voxel_bytes) + (voxel_bytes == 1 ? " byte" : " bytes") +
+                     " per voxel in the file and " + std::to_string(label_bytes) +
+                     " per label), more than input.max_image_gib = " + number_text(max_image_gib) +
+                     " (raise it to read this image)");
+    }
+}
+
+void check_origin(const std::string& path, const std::string& field, double origin_mm) {
+    if (!(std::abs(origin_mm) <= max_origin_mm))
+        FM_THROW(InputError, image_prefix(path) + field + " is " + number_text(origin_mm) +
+                                 (std::isfinite(origin_mm) ? " mm" : "") +
+                                 "; an origin coordinate must be finite and within +-" +
+                                 number_text(max_origin_mm) + " mm");
+}
+
+std::string non_finite_voxels_message(const std::string& path, const std::string& value,
+                                      std::uint64_t i, std::uint64_t j, std::uint64_t k,
+                                      std::uint64_t count) {
+    return image_prefix(path) + "voxel (" + std::to_string(i) + ", " + std::to_string(j) + ", " +
+           std::to_string(k) + ") is " + value + " (" + std::to_string(count) +
+           " NaN or inf voxel" + (count > 1 ? "s" : "") + " in all)" +
+           "; every voxel of a float image must be a finite number, with or without "
+           "input.threshold";
 }
 
 void check_spacing(const std::string& path, const std::string& field, double spacing_mm) {
@@ -842,14 +1060,14 @@ void check_spacing(const std::string& path, const std::string& field, double spa
 }
 
 void check_image_header(const std::string& path, const std::string& file,
-                        bool check_spacing_values) {
+                        const HeaderLimits& limits) {
     const std::string name = lowercase(file);
     if (nifti_files(file)) {
-        check_nifti(path, file, check_spacing_values);
+        check_nifti(path, file, limits);
     } else if (name.ends_with(".mha") || name.ends_with(".mhd")) {
-        check_metaimage(path, file, check_spacing_values);
+        check_metaimage(path, file, limits);
     } else if (name.ends_with(".nrrd") || name.ends_with(".nhdr")) {
-        check_nrrd(path, file, check_spacing_values);
+        check_nrrd(path, file, limits);
     }
 }
 

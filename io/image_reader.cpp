@@ -289,13 +289,28 @@ std::string value_text(T value) {
     return text.str();
 }
 
-/// Throws the InputError for the first non-finite voxel (i, j, k) of a float image.
+/// Throws InputError naming the first non-finite voxel (i, j, k, x fastest in `buffer`) of an
+/// nx*ny*nz float image and their count, when there is one. NaN compares false with any
+/// threshold, so without this check it became background. One pass, before any allocation.
 template <class T>
-[[noreturn]] void throw_non_finite(const std::string& path, T value, std::size_t i, std::size_t j,
-                                   std::size_t k) {
-    FM_THROW(InputError, image_prefix(path) + "voxel " + index_text(i, j, k) + " is " +
-                             value_text(value) +
-                             "; every voxel of a float image must be a finite number");
+void check_finite(const std::string& path, const T* buffer, const std::array<std::size_t, 3>& n) {
+    const std::size_t total = n[0] * n[1] * n[2];
+    std::size_t count = 0;
+    std::size_t first = 0;
+    for (std::size_t v = 0; v < total; ++v) {
+        if (!std::isfinite(buffer[v])) {
+            if (count == 0) first = v;
+            ++count;
+        }
+    }
+    if (count == 0) return;
+    const T value = buffer[first];
+    FM_THROW(InputError, non_finite_voxels_message(path,
+                                                   std::isnan(value) ? "nan"
+                                                   : value > 0       ? "inf"
+                                                                     : "-inf",
+                                                   first % n[0], first / n[0] % n[1],
+                                                   first / (n[0] * n[1]), count));
 }
 
 std::string axis_spacing_name(int axis) { return std::string("spacing along ") + "xyz"[axis]; }
@@ -360,26 +375,22 @@ core::LabelImage label_image_from(const itk::Image<T, 3>& image, const std::stri
     }
     out.origin -= out.direction * (out.spacing * static_cast<double>(pad));
 
-    out.labels.assign(out.voxel_count(), Label{0});
     const T* buffer = image.GetBufferPointer();
+    if constexpr (std::is_floating_point_v<T>) check_finite(path, buffer, n);
+    out.labels.assign(out.voxel_count(), Label{0});
     constexpr auto label_min = std::numeric_limits<Label>::min();
     constexpr auto label_max = std::numeric_limits<Label>::max();
 
     if (options.threshold) {
         const double threshold = *options.threshold;
         fill_padded(buffer, n, pad, out.labels,
-                    [&path, threshold](T v, std::size_t i, std::size_t j, std::size_t k) {
-                        // NaN compares false: without the check it would become background.
-                        if constexpr (std::is_floating_point_v<T>) {
-                            if (!std::isfinite(v)) throw_non_finite(path, v, i, j, k);
-                        }
+                    [threshold](T v, std::size_t, std::size_t, std::size_t) {
                         return static_cast<double>(v) > threshold ? Label{1} : Label{0};
                     });
     } else if constexpr (std::is_floating_point_v<T>) {
         fill_padded(
             buffer, n, pad, out.labels, [&path](T v, std::size_t i, std::size_t j, std::size_t k) {
                 const auto d = static_cast<double>(v);
-                if (!std::isfinite(d)) throw_non_finite(path, v, i, j, k);
                 if (d != std::trunc(d))
                     FM_THROW(InputError, image_prefix(path) + "voxel " + index_text(i, j, k) +
                                              " has non-integral value " + value_text(v) +
@@ -457,6 +468,8 @@ core::LabelImage read_as(const std::string& path, const Source& source, itk::Ima
 void validate(const ImageReadOptions& options) {
     if (options.pad < 0)
         FM_THROW(InputError, "input.pad: must be >= 0, got " + std::to_string(options.pad));
+    if (!(options.max_image_gib > 0.0 && options.max_image_gib <= 65536.0))
+        FM_THROW(InputError, "input.max_image_gib: must be within (0, 65536] GiB");
     if (options.threshold && !std::isfinite(*options.threshold))
         FM_THROW(InputError, "input.threshold: must be a finite number");
     if (options.spacing &&
@@ -478,15 +491,16 @@ void check_geometry(const std::string& path, const Source& source, const itk::Im
     std::vector<std::uint64_t> extents;
     for (unsigned d = 0; d < n; ++d) extents.push_back(io.GetDimensions(d));
     if (source.files.size() > 1) extents.push_back(source.files.size());
-    check_voxel_count(path, "image size", extents);
+    const auto voxel_bytes =
+        static_cast<std::uint64_t>(io.GetComponentSize()) * io.GetNumberOfComponents();
+    check_image_memory(path, "image size", extents, voxel_bytes, options.max_image_gib);
     // A series' slice spacing (z) comes from the slice positions, checked once read.
     const unsigned spaced = std::min(n, source.files.size() > 1 ? 2u : 3u);
     if (!options.spacing)
         for (unsigned d = 0; d < spaced; ++d)
             check_spacing(path, axis_spacing_name(static_cast<int>(d)), io.GetSpacing(d));
     for (unsigned d = 0; d < n; ++d)
-        if (!std::isfinite(io.GetOrigin(d)))
-            FM_THROW(InputError, image_prefix(path) + "has a non-finite origin");
+        check_origin(path, "origin value " + std::to_string(d + 1), io.GetOrigin(d));
     if (n >= 3) {
         Eigen::Matrix3d direction;
         for (unsigned c = 0; c < 3; ++c) {
@@ -509,7 +523,10 @@ OpenImage open_image(const std::string& path, const ImageReadOptions& options) {
         FM_THROW(InputError, image_prefix(path) +
                                  "is a TIFF/PNG slice stack, which carries no spacing; set "
                                  "input.spacing");
-    if (source.kind == SourceKind::File) check_image_header(path, first, !options.spacing);
+    if (source.kind == SourceKind::File)
+        check_image_header(
+            path, first,
+            {.check_spacing = !options.spacing, .max_image_gib = options.max_image_gib});
 
     itk::ImageIOBase::Pointer& io = image.io;
     if (source.kind == SourceKind::Dicom) {

@@ -6,6 +6,7 @@
 
 #include <Eigen/Core>
 
+#include "io/image_header.h"
 #include "pipeline/core/label_image.h"
 
 namespace frontmesh::io {
@@ -20,6 +21,9 @@ struct ImageReadOptions {
     core::Frame frame = core::Frame::Lps;
     /// Voxels of label 0 added on every side so that objects touching the border close.
     int pad = 1;
+    /// input.max_image_gib: the largest memory (GiB) reading may take, estimated from the
+    /// header as voxels x (bytes per voxel in the file + 4 bytes of label); > 0.
+    double max_image_gib = default_max_image_gib;
 };
 
 /// Reads `path`: a file (.nii, .nii.gz, .mha, .mhd, .nrrd, .nhdr, or a single 3-D .tif),
@@ -29,10 +33,13 @@ struct ImageReadOptions {
 /// unless `threshold` is set. Spacing, origin and direction are honoured.
 /// Before ITK reads anything, `path` must be a regular file or a folder (a named pipe or a
 /// device is refused unopened) and its header passes check_image_header (io/image_header.h):
-/// at most max_image_voxels voxels, spacing within [min_spacing_mm, max_spacing_mm], finite
-/// non-singular orientation, data files at least as long as the header announces.
+/// its memory estimate within `max_image_gib`, spacing within [min_spacing_mm,
+/// max_spacing_mm], origin within max_origin_mm, finite non-singular orientation, data at
+/// least as long as the header announces (and a NIfTI float image without NaN or inf).
 /// Throws InputError, one line naming the path (and the header field, data file or voxel),
-/// when it is missing, unreadable, malformed, not 3-D, has a non-finite voxel, non-integral
+/// when it is missing, unreadable, malformed, not 3-D, has a non-finite voxel (the message
+/// names the first and counts them all; a threshold does not help, NaN is not below or
+/// above it), non-integral
 /// labels without a threshold, labels outside int32, or is a slice stack without spacing.
 core::LabelImage read_label_image(const std::string& path, const ImageReadOptions& options);
 

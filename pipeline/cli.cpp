@@ -267,8 +267,10 @@ int run_cli(int argc, char** argv) {
                                      " RECIPE.yaml)");
         const Recipe recipe = load_recipe(args.recipe, args.overrides);
         if (!recipe.input.image.empty())
-            io::check_label_image(recipe.input.image, {.threshold = recipe.input.threshold,
-                                                       .spacing = recipe.input.spacing});
+            io::check_label_image(recipe.input.image,
+                                  {.threshold = recipe.input.threshold,
+                                   .spacing = recipe.input.spacing,
+                                   .max_image_gib = recipe.input.max_image_gib});
         if (args.command == "validate") {
             std::cout << args.recipe << ": valid; output in " << recipe.output.dir << '\n';
             return 0;

@@ -212,6 +212,12 @@ void add_input_keys(std::vector<KeySpec>& specs) {
                      [](const YAML::Node& n, Recipe& r, const Where& w) {
                          r.input.label_names = resolve_input_path(as_string(n, w), r.path);
                      }});
+    const core::ParamRange gib = core::above_up_to(0.0, 65536.0);
+    specs.push_back({"input.max_image_gib", "4", gib.text(), "GiB",
+                     "memory an image may take while read: voxels x (file bytes + 4)",
+                     [=](const YAML::Node& n, Recipe& r, const Where& w) {
+                         r.input.max_image_gib = as_number(n, w, gib);
+                     }});
 }
 
 void add_output_keys(std::vector<KeySpec>& specs) {

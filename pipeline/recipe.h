@@ -24,6 +24,7 @@ struct InputSection {
     std::optional<Eigen::Vector3d> spacing;  ///< mm, slice stacks
     std::string label_names;                 ///< label table file (absolute), or empty: the table
                                              ///< beside the image when there is one
+    double max_image_gib = 4.0;              ///< GiB an image may take while read (io limit)
 };
 
 struct OutputSection {

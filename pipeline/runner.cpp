@@ -454,6 +454,7 @@ void Run::read_input() {
         io::ImageReadOptions read;
         read.threshold = recipe_.input.threshold;
         read.spacing = recipe_.input.spacing;
+        read.max_image_gib = recipe_.input.max_image_gib;
         read.frame = recipe_.output.frame;
         info("reading image " + recipe_.input.image);
         data_ = io::read_label_image(recipe_.input.image, read);

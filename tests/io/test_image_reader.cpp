@@ -615,6 +615,18 @@ TEST_CASE("NIfTI header values are checked before ITK reads them", "[io]") {
         {"pixdim_tiny",
          [&](const std::string& b) { return poked<float>(b, 80, 1e-30f); },
          {"pixdim[1]", "1e-30 mm"}},
+        {"pixdim_negative",
+         [&](const std::string& b) { return poked<float>(b, 84, -1.3f); },
+         {"pixdim[2]", "-1.3 mm"}},
+        {"vox_offset_huge",
+         [&](const std::string& b) { return poked<float>(b, 108, 1e30f); },
+         {"vox_offset", "1e+30"}},
+        {"sform_offset_huge",
+         [&](const std::string& b) { return poked<float>(b, 292, 1e9f); },
+         {"srow_x[3]", "1e+09 mm", "1e+06 mm"}},
+        {"qoffset_huge",
+         [&](const std::string& b) { return poked<float>(b, 272, -1e9f); },
+         {"qoffset_y", "-1e+09 mm"}},
         {"sform_nan",
          [&](const std::string& b) { return poked<float>(b, 280, nan); },
          {"srow_x[0]", "nan"}},
@@ -634,13 +646,16 @@ TEST_CASE("NIfTI header values are checked before ITK reads them", "[io]") {
         {"dim_zero",
          [&](const std::string& b) { return poked<std::int16_t>(b, 44, 0); },
          {"dim[2]", "at least 1"}},
+        {"dim_negative",
+         [&](const std::string& b) { return poked<std::int16_t>(b, 46, -4); },
+         {"dim[3] is -4", "at least 1"}},
         {"dim_huge",
          [&](const std::string& b) {
              std::string c = b;
              for (std::size_t at : {42u, 44u, 46u}) c = poked<std::int16_t>(c, at, 1500);
              return c;
          },
-         {"dim[1..3]", "1500 x 1500 x 1500", "at most"}},
+         {"dim[1..3]", "1500 x 1500 x 1500", "15.7 GiB", "input.max_image_gib = 4"}},
         {"datatype",
          [&](const std::string& b) { return poked<std::int16_t>(b, 70, 3); },
          {"datatype 3"}},
@@ -730,7 +745,10 @@ TEST_CASE("MetaImage and NRRD headers and data sizes are checked before allocati
         check_refused(path, ImageReadOptions{}, raw, {"ElementDataFile", "truncated"});
 
         write_bytes(path, with_line(header, "DimSize", "DimSize = 1500 1500 1500"));
-        check_refused(path, ImageReadOptions{}, path, {"DimSize", "1500 x 1500 x 1500"});
+        check_refused(path, ImageReadOptions{}, path,
+                      {"DimSize", "1500 x 1500 x 1500", "input.max_image_gib"});
+        write_bytes(path, with_line(header, "Offset", "Offset = 0 2e6 0"));
+        check_refused(path, ImageReadOptions{}, path, {"Offset value 2", "2e+06 mm"});
         write_bytes(path, with_line(header, "DimSize", "DimSize = 12 0 8"));
         check_refused(path, ImageReadOptions{}, path, {"DimSize", "at least 1"});
         write_bytes(path, with_line(header, "ElementSpacing", "ElementSpacing = 0.7 nan 2.1"));
@@ -764,7 +782,10 @@ TEST_CASE("MetaImage and NRRD headers and data sizes are checked before allocati
         write_bytes(path, bytes.substr(0, bytes.size() - 1));
         check_refused(path, ImageReadOptions{}, path, {"truncated", "sizes 12 10 8"});
         write_bytes(path, with_line(header, "sizes", "sizes: 1500 1500 1500") + data);
-        check_refused(path, ImageReadOptions{}, path, {"sizes", "1500 x 1500 x 1500"});
+        check_refused(path, ImageReadOptions{}, path,
+                      {"sizes", "1500 x 1500 x 1500", "input.max_image_gib"});
+        write_bytes(path, with_line(header, "space origin", "space origin: (0,0,-1e7)") + data);
+        check_refused(path, ImageReadOptions{}, path, {"space origin value 3", "-1e+07 mm"});
         write_bytes(path, with_line(header, "space directions",
                                     "space directions: (nan,0,0) (0,1,0) (0,0,1)") +
                               data);
@@ -811,7 +832,8 @@ TEST_CASE("NaN and inf voxels of a float image are refused with or without thres
             const std::string message = input_error_of([&] { read_label_image(path, options); });
             INFO(message);
             CHECK(message.find("'" + path + "'") != std::string::npos);
-            CHECK(message.find("voxel (4, 2, 1) is " + value + ";") != std::string::npos);
+            CHECK(message.find("voxel (4, 2, 1) is " + value + " (2 NaN or inf voxels in all);") !=
+                  std::string::npos);
         }
     }
     // Finite grayscale values still segment as before.
@@ -820,6 +842,136 @@ TEST_CASE("NaN and inf voxels of a float image are refused with or without thres
     check_image(
         read_label_image(dir + "/gray.mha", threshold), grid, 1,
         [](int i, int, int) { return 0.5 * i > 1.5 ? 1 : 0; }, 1e-6);
+}
+
+TEST_CASE("NaN and inf voxels of a NIfTI float image are counted before niftilib zeroes them",
+          "[io]") {
+    // niftilib sets every non-finite float voxel to 0 while it reads: a NaN became background
+    // even with the checks after ITK. The header check scans the raw (or gzip) voxels first.
+    const std::string dir = frontmesh::fixtures::temp_dir("io_nifti_nan");
+    const Grid grid = rotated_grid();
+    const auto image = make_image<float>(grid, as_value);
+    ImageReadOptions threshold;
+    threshold.threshold = 1.5;
+    for (const std::string extension : {".nii", ".nii.gz"}) {
+        const std::string valid = dir + "/valid" + extension;
+        write_image(image.GetPointer(), valid);
+        const std::string bytes = read_gz(valid);
+        REQUIRE(peeked<std::int16_t>(bytes, 70) == 16);  // DT_FLOAT32
+        const auto data_at = static_cast<std::size_t>(peeked<float>(bytes, 108));
+        check_image(read_label_image(valid, ImageReadOptions{}), grid, 1, test_label, 1e-4);
+        // Voxel (i, j, k) of the 7 x 6 x 5 grid is value i + 7 j + 42 k of the data.
+        auto at = [&](int i, int j, int k) { return data_at + 4 * (i + 7 * j + 42 * k); };
+        for (const float bad :
+             {std::numeric_limits<float>::quiet_NaN(), -std::numeric_limits<float>::infinity()}) {
+            const std::string value = std::isnan(bad) ? "nan" : "-inf";
+            DYNAMIC_SECTION(value << extension) {
+                std::string corrupt = poked<float>(bytes, at(6, 5, 4), bad);
+                corrupt = poked<float>(corrupt, at(4, 2, 1), bad);
+                corrupt =
+                    poked<float>(corrupt, at(3, 2, 1), std::numeric_limits<float>::infinity());
+                const std::string path = dir + "/bad_" + value + extension;
+                extension == ".nii" ? write_bytes(path, corrupt) : write_gz(path, corrupt);
+                for (const ImageReadOptions& options : {ImageReadOptions{}, threshold})
+                    check_refused(
+                        path, options, path,
+                        {"voxel (3, 2, 1) is inf (3 NaN or inf voxels in all)", "input.threshold"});
+            }
+        }
+    }
+}
+
+TEST_CASE("the memory an image takes is estimated from its header and limited", "[io]") {
+    // A header announcing 1024^3 voxels is refused from the header alone, naming the key that
+    // raises the limit; raised, the next check (the data size) refuses it, still unallocated.
+    const std::string dir = frontmesh::fixtures::temp_dir("io_memory_limit");
+    Grid grid;
+    const auto image = make_image<unsigned char>(grid, as_value);
+    const std::string path = dir + "/big.mhd";
+    write_image(image.GetPointer(), path);
+    REQUIRE_NOTHROW(read_label_image(path, ImageReadOptions{}));
+    write_bytes(path, with_line(read_bytes(path), "DimSize", "DimSize = 1024 1024 1024"));
+    // 2^30 voxels x (1 byte + 4 bytes of label) = 5 GiB.
+    check_refused(path, ImageReadOptions{}, path,
+                  {"DimSize 1024 x 1024 x 1024", "about 5 GiB", "(1 byte per voxel",
+                   "input.max_image_gib = 4"});
+    ImageReadOptions raised;
+    raised.max_image_gib = 6.0;
+    check_refused(path, raised, dir + "/big.raw", {"truncated", "1073741824"});
+
+    SECTION("formats without a header of ours: the size ITK reports") {
+        const std::string png = dir + "/slices";
+        fs::create_directories(png);
+        // 7 x 6 x 5 voxels of 1 + 4 bytes take 1050 bytes.
+        write_slices(image.GetPointer(), {png + "/s0.png", png + "/s1.png", png + "/s2.png",
+                                          png + "/s3.png", png + "/s4.png"});
+        ImageReadOptions tiny;
+        tiny.spacing = Eigen::Vector3d(1.0, 1.0, 1.0);
+        REQUIRE_NOTHROW(read_label_image(png, tiny));
+        tiny.max_image_gib = 5e-7;  // 537 bytes
+        check_refused(png, tiny, png, {"image size 7 x 6 x 5", "input.max_image_gib"});
+    }
+}
+
+TEST_CASE("compressed and text data are counted against the header before allocation", "[io]") {
+    // MetaIO and teem allocate what the header announces, then inflate: a 200^3 header over
+    // a few hundred compressed bytes allocated 8 MB (1500^3: 3.4 GB) before failing.
+    const std::string dir = frontmesh::fixtures::temp_dir("io_compressed_size");
+    Grid grid = rotated_grid();
+    grid.size = {12, 10, 8};
+    const auto image = make_image<short>(grid, as_value);
+    auto write_compressed = [&](const std::string& path) {
+        auto writer = itk::ImageFileWriter<itk::Image<short, 3>>::New();
+        writer->SetInput(image);
+        writer->SetFileName(path);
+        writer->UseCompressionOn();
+        writer->Update();
+    };
+
+    SECTION("MetaImage CompressedData (zlib), attached and in a .zraw") {
+        for (const std::string name : {"labels.mha", "labels.mhd"}) {
+            const std::string path = dir + "/" + name;
+            write_compressed(path);
+            const std::string bytes = read_bytes(path);
+            REQUIRE(bytes.find("CompressedData = True") != std::string::npos);
+            check_image(read_label_image(path, ImageReadOptions{}), grid, 1, test_label, 1e-4);
+            write_bytes(path, with_line(bytes, "DimSize", "DimSize = 200 200 200"));
+            check_refused(path, ImageReadOptions{},
+                          name == "labels.mha" ? path : dir + "/labels.zraw",
+                          {"truncated", "16000000 bytes", "once decompressed", "DimSize 200"});
+        }
+        const std::string path = dir + "/labels.mha";
+        write_compressed(path);
+        const std::string bytes = read_bytes(path);
+        write_bytes(path, bytes.substr(0, bytes.size() - 20));  // a damaged stream
+        check_refused(path, ImageReadOptions{}, path, {"truncated", "once decompressed"});
+        // Without its size MetaIO read the data after the header as garbage (88 labels).
+        const auto size_at = bytes.find("\nCompressedDataSize");
+        REQUIRE(size_at != std::string::npos);
+        write_bytes(path, bytes.substr(0, size_at) + bytes.substr(bytes.find('\n', size_at + 1)));
+        check_refused(path, ImageReadOptions{}, path, {"CompressedDataSize is missing"});
+    }
+    SECTION("NRRD gzip, and ascii text") {
+        const std::string path = dir + "/labels.nrrd";
+        write_compressed(path);
+        const std::string bytes = read_bytes(path);
+        REQUIRE(bytes.find("encoding: gzip") != std::string::npos);
+        check_image(read_label_image(path, ImageReadOptions{}), grid, 1, test_label, 1e-4);
+        write_bytes(path, with_line(bytes, "sizes", "sizes: 200 200 200"));
+        check_refused(path, ImageReadOptions{}, path,
+                      {"truncated", "16000000 bytes", "once decompressed", "sizes 200 200 200"});
+
+        const std::string text = dir + "/text.nrrd";
+        std::string values;
+        for (int v = 0; v < 12 * 10 * 8; ++v) values += std::to_string(v % 2) + " ";
+        const std::string header =
+            "NRRD0004\ntype: short\ndimension: 3\nsizes: 12 10 8\n"
+            "spacings: 1 1 1\nencoding: ascii\n\n";
+        write_bytes(text, header + values);
+        REQUIRE(read_label_image(text, ImageReadOptions{}).dims[0] == 14);
+        write_bytes(text, with_line(header, "sizes", "sizes: 200 200 200") + values);
+        check_refused(text, ImageReadOptions{}, text, {"truncated", "of text", "15999999"});
+    }
 }
 
 TEST_CASE("named pipes and devices and sockets are refused unopened", "[io]") {
