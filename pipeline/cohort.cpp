@@ -21,6 +21,7 @@
 
 #include "io/atomic_file.h"
 #include "pipeline/core/error.h"
+#include "pipeline/core/input_file.h"
 #include "pipeline/output_dir.h"
 #include "pipeline/recipe.h"
 #include "pipeline/report.h"
@@ -530,7 +531,7 @@ std::vector<std::pair<int, std::vector<std::string>>> parse_csv(const std::strin
 }
 
 Manifest read_manifest(const std::string& path) {
-    if (!fs::is_regular_file(path)) FM_THROW(InputError, "manifest '" + path + "' does not exist");
+    core::require_input_file(path, "manifest ");  // a named pipe would block the read
     Manifest m;
     m.path = fs::absolute(path).lexically_normal().string();
     const auto records = parse_csv(read_text(path), path);
