@@ -16,7 +16,6 @@ std::string file_kind(const std::filesystem::file_status& status);
 /// pipe, socket or device is refused without opening it (an open would block or consume
 /// it). `prefix` names the place, e.g. "recipe.yaml:3: input.surface: " or "manifest ".
 /// Reads the filesystem only (stat, access).
-void require_input_file(const std::string& path, const std::string& prefix,
-                        bool folder_ok = false);
+void require_input_file(const std::string& path, const std::string& prefix, bool folder_ok = false);
 
 }  // namespace frontmesh::core
