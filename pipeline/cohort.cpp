@@ -677,6 +677,7 @@ CohortResult run_cohort(const std::string& manifest_path, const CohortOptions& o
     // 4. Run, `jobs` subjects at a time; rows stay in manifest order.
     const std::size_t total = manifest.subjects.size();
     result.subjects.resize(total);
+    remove_stale_temp_files(result.root);  // of a killed cohort: its summaries' temp files
     claim_output_dir(result.root);
     std::size_t next = 0, finished = 0;
     std::vector<Job> running;

@@ -188,6 +188,14 @@ void check_output_dir(const Recipe& recipe, const std::string& origin) {
     if (existing == dir) check_contents(recipe, dir, !input.empty(), place);
 }
 
+int remove_stale_temp_files(const std::string& dir) {
+    if (!fs::exists(fs::path(dir) / kOutputMarker)) return 0;
+    int removed = 0;
+    for (const char* sub : {"", "checkpoints", "diagnostics"})
+        removed += io::remove_stale_temp_files((fs::path(dir) / sub).string());
+    return removed;
+}
+
 void claim_output_dir(const std::string& dir) {
     fs::create_directories(dir);
     const fs::path marker = fs::path(dir) / kOutputMarker;

@@ -488,10 +488,7 @@ void Run::read_input() {
 // anything is written; only in a folder frontmesh marked as its own, so nothing of the
 // user's is touched.
 void Run::remove_stale_temp_files() {
-    if (!fs::exists(out_.dir / kOutputMarker)) return;
-    int removed = 0;
-    for (const fs::path& folder : {out_.dir, out_.dir / "checkpoints", out_.diagnostics()})
-        removed += io::remove_stale_temp_files(folder.string());
+    const int removed = pipeline::remove_stale_temp_files(out_.dir.string());
     if (removed > 0)
         log_.note("removed " + std::to_string(removed) + " temporary file(s) of an earlier run");
 }
