@@ -656,6 +656,8 @@ core::SurfaceNetwork read_surface(const std::string& path, FieldStrings* fields)
     if (!fs::exists(path, ec)) FM_THROW(InputError, quoted(path) + " does not exist");
     if (fs::is_directory(path, ec))
         FM_THROW(InputError, quoted(path) + " is a folder, not a surface file");
+    if (!fs::is_regular_file(path, ec))  // a named pipe or device: reading it would block
+        FM_THROW(InputError, quoted(path) + " is not a regular file");
     if (fields != nullptr) fields->clear();
 
     const std::string ext = lower(fs::path(path).extension().string());
@@ -801,6 +803,8 @@ void write_tet_mesh_vtu(const core::TetMesh& mesh, const std::string& path,
 core::TetMesh read_tet_mesh(const std::string& path, FieldStrings* fields) {
     std::error_code ec;
     if (!fs::exists(path, ec)) FM_THROW(InputError, quoted(path) + " does not exist");
+    if (!fs::is_regular_file(path, ec))  // a folder, a named pipe or a device
+        FM_THROW(InputError, quoted(path) + " is not a regular file");
     if (fields != nullptr) fields->clear();
     const std::string ext = lower(fs::path(path).extension().string());
     if (ext != ".vtu")

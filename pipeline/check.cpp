@@ -14,6 +14,7 @@
 
 #include "io/mesh_io.h"
 #include "pipeline/core/error.h"
+#include "pipeline/core/input_file.h"
 #include "pipeline/core/quality.h"
 
 namespace frontmesh::pipeline {
@@ -412,6 +413,9 @@ MeshReport check_mesh(const core::TetMesh& mesh, const core::SurfaceNetwork* ref
 MeshReport check_mesh_file(const std::string& path, const std::string& reference_surface) {
     io::LabelTable names;
     io::MeshReadInfo info;
+    // stat first: a named pipe or device would block the readers.
+    core::require_input_file(path, "check: ");
+    if (!reference_surface.empty()) core::require_input_file(reference_surface, "--surface ");
     const core::TetMesh mesh = io::read_mesh(path, &names, &info, /*keep_orientation=*/true);
     std::optional<core::SurfaceNetwork> ref;
     if (!reference_surface.empty()) {

@@ -16,6 +16,7 @@
 #include "pipeline/check.h"
 #include "pipeline/cohort.h"
 #include "pipeline/core/error.h"
+#include "pipeline/core/input_file.h"
 #include "pipeline/recipe.h"
 #include "pipeline/runner.h"
 #include "pipeline/version.h"
@@ -208,6 +209,7 @@ int run_convert_command(const Arguments& args) {
         args.format.empty() ? io::format_from_path(args.output) : io::format_from_name(args.format);
     io::LabelTable names;
     io::MeshReadInfo info;
+    core::require_input_file(args.recipe, "convert: ");  // stat first: a pipe would block
     const core::TetMesh mesh = io::read_mesh(args.recipe, &names, &info);
     if (!args.labels.empty()) {
         const io::LabelTable table = io::read_label_table(args.labels);
@@ -280,8 +282,12 @@ int run_cli(int argc, char** argv) {
             threads =
                 std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
                                                       static_cast<std::size_t>(args.threads));
-        const std::string result =
-            run_recipe(recipe, RunOptions{args.from, args.until, args.force, args.quiet});
+        RunOptions options;
+        options.from = args.from;
+        options.until = args.until;
+        options.force = args.force;
+        options.quiet = args.quiet;
+        const std::string result = run_recipe(recipe, options);
         const auto dir = std::filesystem::path(recipe.output.dir);
         std::cout << "\nResult:      " << result
                   << "\nCheckpoints: " << (dir / "checkpoints").string()

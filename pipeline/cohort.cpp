@@ -21,6 +21,7 @@
 
 #include "io/atomic_file.h"
 #include "pipeline/core/error.h"
+#include "pipeline/core/input_file.h"
 #include "pipeline/output_dir.h"
 #include "pipeline/recipe.h"
 #include "pipeline/report.h"
@@ -530,7 +531,7 @@ std::vector<std::pair<int, std::vector<std::string>>> parse_csv(const std::strin
 }
 
 Manifest read_manifest(const std::string& path) {
-    if (!fs::is_regular_file(path)) FM_THROW(InputError, "manifest '" + path + "' does not exist");
+    core::require_input_file(path, "manifest ");  // a named pipe would block the read
     Manifest m;
     m.path = fs::absolute(path).lexically_normal().string();
     const auto records = parse_csv(read_text(path), path);
@@ -676,6 +677,7 @@ CohortResult run_cohort(const std::string& manifest_path, const CohortOptions& o
     // 4. Run, `jobs` subjects at a time; rows stay in manifest order.
     const std::size_t total = manifest.subjects.size();
     result.subjects.resize(total);
+    remove_stale_temp_files(result.root);  // of a killed cohort: its summaries' temp files
     claim_output_dir(result.root);
     std::size_t next = 0, finished = 0;
     std::vector<Job> running;

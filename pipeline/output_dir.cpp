@@ -10,9 +10,12 @@
 #include <cstring>
 #include <filesystem>
 #include <string_view>
+#include <vector>
 
 #include "io/atomic_file.h"
+#include "io/export.h"
 #include "pipeline/core/error.h"
+#include "pipeline/core/input_file.h"
 #include "pipeline/version.h"
 
 namespace frontmesh::pipeline {
@@ -27,22 +30,6 @@ struct Place {
         FM_THROW(InputError, origin + ": output.dir: '" + dir + "' " + what);
     }
 };
-
-std::string kind_of(const fs::file_status& status) {
-    switch (status.type()) {
-        case fs::file_type::regular:
-            return "a file";
-        case fs::file_type::fifo:
-            return "a named pipe";
-        case fs::file_type::socket:
-            return "a socket";
-        case fs::file_type::block:
-        case fs::file_type::character:
-            return "a device";
-        default:
-            return "not a folder";
-    }
-}
 
 // Before any stat: an over-long name makes every later call fail with ENAMETOOLONG.
 void check_lengths(const fs::path& dir, const Place& place) {
@@ -100,8 +87,9 @@ fs::path check_parts(const fs::path& dir, const Place& place) {
         const fs::file_status status = fs::status(prefix, ec);
         if (!fs::exists(status)) break;
         if (!fs::is_directory(status)) {
-            if (prefix == dir) place.fail("is " + kind_of(status) + ", not a folder");
-            place.fail("cannot be a folder: '" + prefix.string() + "' is " + kind_of(status));
+            if (prefix == dir) place.fail("is " + core::file_kind(status) + ", not a folder");
+            place.fail("cannot be a folder: '" + prefix.string() + "' is " +
+                       core::file_kind(status));
         }
         existing = prefix;
     }
@@ -120,18 +108,53 @@ std::string held_input(const Recipe& recipe, const fs::path& dir) {
     return {};
 }
 
-// In an existing folder: checkpoints and diagnostics are folders, and a folder with
-// anything in it was made by frontmesh (it has the marker), unless it is the input's
+// The files a run writes at fixed names in the folder itself; a folder or a named pipe in
+// their place would make the run fail after its work (a rename onto a folder) or hang (the
+// log opened on a pipe).
+std::vector<std::string> result_names(const Recipe& recipe) {
+    std::vector<std::string> names = {
+        kOutputMarker,  "frontmesh.log",   "summary.json",         "run.pvd",
+        "surface.vtu",  "report.html",     "surface_skewness.svg", "tet_skewness.svg",
+        "dihedral.svg", "min_dihedral.svg"};
+    for (const std::string& format : recipe.output.formats)
+        names.push_back(io::export_file_name(io::format_from_name(format)));
+    return names;
+}
+
+// In an existing folder: checkpoints and diagnostics are folders holding only files, the
+// result names are not folders, nothing in it is a pipe, socket or device, and a folder
+// with anything in it was made by frontmesh (it has the marker), unless it is the input's
 // folder the recipe allows (output.allow_input_folder).
-void check_contents(const fs::path& dir, bool foreign_ok, const Place& place) {
-    for (const char* sub : {"checkpoints", "diagnostics"}) {
-        std::error_code ec;
-        const fs::file_status status = fs::status(dir / sub, ec);
-        if (fs::exists(status) && !fs::is_directory(status))
-            place.fail("cannot be used: '" + (dir / sub).string() + "' is " + kind_of(status) +
-                       ", not a folder");
-    }
+void check_contents(const Recipe& recipe, const fs::path& dir, bool foreign_ok,
+                    const Place& place) {
+    auto refuse = [&](const fs::path& path, const fs::file_status& status,
+                      const std::string& wanted) {
+        place.fail("cannot be used: '" + path.string() + "' is " + core::file_kind(status) +
+                   ", not " + wanted);
+    };
     std::error_code ec;
+    for (const std::string& name : result_names(recipe)) {
+        const fs::file_status status = fs::status(dir / name, ec);
+        if (fs::exists(status) && !fs::is_regular_file(status))
+            refuse(dir / name, status, "a file");
+    }
+    // Bounded by the folder's entries.
+    for (const auto& entry : fs::directory_iterator(dir, ec)) {
+        const fs::file_status status = entry.status(ec);
+        if (fs::exists(status) && !fs::is_regular_file(status) && !fs::is_directory(status))
+            refuse(entry.path(), status, "a file or a folder");
+    }
+    for (const char* sub : {"checkpoints", "diagnostics"}) {
+        const fs::file_status status = fs::status(dir / sub, ec);
+        if (!fs::exists(status)) continue;
+        if (!fs::is_directory(status)) refuse(dir / sub, status, "a folder");
+        // Only the run's own files live there: bounded by the folder's entries.
+        for (const auto& entry : fs::directory_iterator(dir / sub, ec)) {
+            const fs::file_status inner = entry.status(ec);
+            if (fs::exists(inner) && !fs::is_regular_file(inner))
+                refuse(entry.path(), inner, "a file");
+        }
+    }
     const bool empty = fs::is_empty(dir, ec);
     if (ec) place.fail("cannot be read: " + ec.message());
     if (!empty && !foreign_ok && !fs::exists(dir / kOutputMarker, ec))
@@ -162,7 +185,15 @@ void check_output_dir(const Recipe& recipe, const std::string& origin) {
         if (existing == dir) place.fail("is not writable (" + why + ")");
         place.fail("cannot be created: '" + existing.string() + "' is not writable (" + why + ")");
     }
-    if (existing == dir) check_contents(dir, !input.empty(), place);
+    if (existing == dir) check_contents(recipe, dir, !input.empty(), place);
+}
+
+int remove_stale_temp_files(const std::string& dir) {
+    if (!fs::exists(fs::path(dir) / kOutputMarker)) return 0;
+    int removed = 0;
+    for (const char* sub : {"", "checkpoints", "diagnostics"})
+        removed += io::remove_stale_temp_files((fs::path(dir) / sub).string());
+    return removed;
 }
 
 void claim_output_dir(const std::string& dir) {

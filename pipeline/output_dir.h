@@ -20,6 +20,11 @@ inline constexpr const char* kOutputMarker = ".frontmesh-output";
 /// Reads the filesystem only (stat, access); creates nothing.
 void check_output_dir(const Recipe& recipe, const std::string& origin);
 
+/// Removes the temporary files killed runs left (io::remove_stale_temp_files) in `dir`,
+/// its checkpoints/ and diagnostics/, only when `dir` carries kOutputMarker: nothing of a
+/// folder frontmesh does not own is touched. Returns how many files were removed.
+int remove_stale_temp_files(const std::string& dir);
+
 /// Creates `dir` when needed and writes kOutputMarker into it (atomically, with the
 /// version) unless it is there already. Call after check_output_dir.
 void claim_output_dir(const std::string& dir);

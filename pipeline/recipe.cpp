@@ -1,10 +1,6 @@
 #include "pipeline/recipe.h"
 
-#include <unistd.h>
-
 #include <algorithm>
-#include <cerrno>
-#include <cstring>
 #include <filesystem>
 #include <functional>
 #include <map>
@@ -18,6 +14,7 @@
 
 #include "io/export.h"
 #include "pipeline/core/error.h"
+#include "pipeline/core/input_file.h"
 #include "pipeline/output_dir.h"
 
 namespace frontmesh::pipeline {
@@ -283,6 +280,9 @@ Apply remesh_label_edge_length() {
         for (const auto& entry : n) {
             const auto label =
                 static_cast<core::Label>(as_integer(entry.first, w, core::closed(0, INT32_MAX)));
+            // "3" and "03" are one label: the text scan for keys given twice cannot see it.
+            if (r.remesh.label_edge_length.count(label) != 0)
+                w.fail("label " + std::to_string(label) + " is given twice");
             r.remesh.label_edge_length[label] = as_number(entry.second, w, size);
         }
     };
@@ -339,22 +339,8 @@ std::string origin_of(const std::string& path, const YAML::Node& node) {
     return mark.line >= 0 ? path + ":" + std::to_string(mark.line + 1) : path;
 }
 
-// The recipe names a regular, readable file (a folder or a named pipe is refused by stat,
-// without opening it).
-void require_recipe_file(const std::string& path) {
-    std::error_code ec;
-    const fs::file_status status = fs::status(path, ec);
-    if (!fs::exists(status)) FM_THROW(InputError, "recipe '" + path + "' does not exist");
-    if (fs::is_directory(status))
-        FM_THROW(InputError, "recipe '" + path + "' is a folder; give the recipe's .yaml file");
-    if (!fs::is_regular_file(status))
-        FM_THROW(InputError, "recipe '" + path + "' is not a regular file");
-    if (access(path.c_str(), R_OK) != 0)
-        FM_THROW(InputError, "recipe '" + path + "' cannot be read: " + std::strerror(errno));
-}
-
 // yaml-cpp keeps every pair of a mapping, so a key given twice would silently take the
-// last value: refuse it, naming both lines.
+// last value: refuse it, naming both lines. `path` "--set": a value given on the command line.
 void reject_duplicate_keys(const YAML::Node& node, const std::string& path,
                            const std::string& prefix) {
     if (node.IsSequence())
@@ -364,10 +350,13 @@ void reject_duplicate_keys(const YAML::Node& node, const std::string& path,
     for (const auto& entry : node) {
         const std::string key = prefix + (entry.first.IsScalar() ? entry.first.Scalar() : "?");
         const int line = entry.first.Mark().line + 1;
-        if (const auto [it, fresh] = lines.emplace(key, line); !fresh)
+        if (const auto [it, fresh] = lines.emplace(key, line); !fresh) {
+            if (path == "--set")  // a one-line value: its lines say nothing
+                FM_THROW(InputError, path + " " + key + ": given twice; keep one");
             FM_THROW(InputError, origin_of(path, entry.first) + ": " + key +
                                      ": given twice (first on line " + std::to_string(it->second) +
                                      "); keep one");
+        }
         reject_duplicate_keys(entry.second, path, key + ".");
     }
 }
@@ -403,6 +392,7 @@ void apply_override(const std::string& item, Recipe& recipe) {
     } catch (const YAML::Exception& e) {
         FM_THROW(InputError, "--set " + key + ": cannot read the value: " + e.msg);
     }
+    reject_duplicate_keys(value, "--set", key + ".");
     // Relative paths given on the command line are relative to the current folder.
     if ((key == "input.image" || key == "input.surface" || key == "input.label_names") &&
         value.IsScalar())
@@ -414,7 +404,8 @@ void apply_override(const std::string& item, Recipe& recipe) {
 
 Recipe load_recipe(const std::string& path, const std::vector<std::string>& overrides) {
     Recipe recipe;
-    require_recipe_file(path);
+    // A folder or a named pipe is refused by stat, without opening it.
+    core::require_input_file(path, "recipe ");
     recipe.path = fs::absolute(path).lexically_normal().string();
     for (const auto& spec : key_specs())
         if (spec.default_yaml != "null")
@@ -449,15 +440,16 @@ Recipe load_recipe(const std::string& path, const std::vector<std::string>& over
     const InputSection& in = recipe.input;
     if (in.image.empty() == in.surface.empty())
         FM_THROW(InputError, path + ": input: give exactly one of input.image or input.surface");
-    if (!in.image.empty() && !fs::exists(in.image) && in.image.find('%') == std::string::npos)
-        FM_THROW(InputError,
-                 origin_for("input.image") + ": input.image: '" + in.image + "' does not exist");
-    if (!in.surface.empty() && !fs::exists(in.surface))
-        FM_THROW(InputError, origin_for("input.surface") + ": input.surface: '" + in.surface +
-                                 "' does not exist");
-    if (!in.label_names.empty() && !fs::exists(in.label_names))
-        FM_THROW(InputError, origin_for("input.label_names") + ": input.label_names: '" +
-                                 in.label_names + "' does not exist");
+    // Every input is stat-ed before anything reads it: a named pipe, socket or device
+    // would block the reader (issue 21). A slice pattern ("slice%03d.png") names no file
+    // itself; the image reader checks the files it expands to.
+    if (!in.image.empty() && (fs::exists(in.image) || in.image.find('%') == std::string::npos))
+        core::require_input_file(in.image, origin_for("input.image") + ": input.image: ", true);
+    if (!in.surface.empty())
+        core::require_input_file(in.surface, origin_for("input.surface") + ": input.surface: ");
+    if (!in.label_names.empty())
+        core::require_input_file(in.label_names,
+                                 origin_for("input.label_names") + ": input.label_names: ");
     if (in.threshold && !(in.labels.empty() || in.labels == std::vector<core::Label>{1}))
         FM_THROW(InputError, origin_for("input.labels") +
                                  ": input.labels: with input.threshold the mask has the single "

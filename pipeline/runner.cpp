@@ -12,6 +12,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <map>
 #include <mutex>
 #include <optional>
 #include <sstream>
@@ -309,6 +310,7 @@ public:
                        {{"frame", frame_}, {"frontmesh_version", version()}}) {}
 
     std::string execute() {
+        remove_stale_temp_files();
         plan_stages();
         read_label_names();
         chain_hashes();
@@ -333,6 +335,8 @@ private:
     [[noreturn]] void stop(const std::string& when);
     void read_input();
     void prepare_folder();
+    void remove_stale_temp_files();
+    void committed(const fs::path& file);
     void mark_reused_stages();
     void run_one(int i);
     StageOutput call_stage(int i, core::StageContext& ctx);
@@ -340,7 +344,9 @@ private:
     void write_stage_summary(int i, const core::StageContext& ctx, double wall,
                              const Quality& quality);
     std::string write_results();
-    void write_exports(const fs::path& result, const fs::path& last_checkpoint, bool ran_any);
+    std::string results_key() const;
+    void write_exports(const fs::path& result, const fs::path& last_checkpoint,
+                       const std::vector<fs::path>& stale, bool ran_any);
     void write_pvd();
     void write_summary(const std::string& status, const std::string& error);
 
@@ -479,6 +485,20 @@ void Run::read_input() {
     }
 }
 
+// Temporary files a killed run left (".NAME.tmp-PID-N", io/atomic_file.h), removed before
+// anything is written; only in a folder frontmesh marked as its own, so nothing of the
+// user's is touched.
+void Run::remove_stale_temp_files() {
+    const int removed = pipeline::remove_stale_temp_files(out_.dir.string());
+    if (removed > 0)
+        log_.note("removed " + std::to_string(removed) + " temporary file(s) of an earlier run");
+}
+
+// Called after each file the run commits (renames into place or removes), in commit order.
+void Run::committed(const fs::path& file) {
+    if (options_.on_commit) options_.on_commit(file.string());
+}
+
 void Run::prepare_folder() {
     if (folder_ready_) return;
     claim_output_dir(out_.dir.string());
@@ -565,8 +585,20 @@ StageOutput Run::call_stage(int i, core::StageContext& ctx) {
 }
 
 // Writes stage i's checkpoint from data_; returns its quality figures.
+//
+// Commit order (issue 21), so that no interruption can pair a .hash with a checkpoint or
+// a .json of other parameters: (1) remove NN-STAGE.hash, (2) rename the checkpoint into
+// place, (3) the .json, (4) the .hash, written last. The .hash is the stage's one commit
+// record: it exists only when the checkpoint and .json beside it were written by the run
+// that wrote it. A kill after (1) and before (4) leaves no .hash, so the next run computes
+// the stage again; a kill before (1) leaves the previous consistent triple. Checking the
+// hash inside the checkpoint instead would mean reading the whole VTU on every re-run.
+// Each step is one unlink or rename, which a kill -9 cannot split (a power cut could
+// reorder them: no fsync is made).
 Quality Run::write_checkpoint(int i, const StageOutput& output, core::StageContext& ctx) {
     const StageDef& stage = stages_[i];
+    fs::remove(out_.with_ext(stage, ".hash"));
+    committed(out_.with_ext(stage, ".hash"));
     const io::FieldStrings fields = {
         {"frame", frame_}, {"stage", stage.name}, {"frontmesh_version", version()}};
     if (stage.out == Kind::Tets) {
@@ -575,6 +607,7 @@ Quality Run::write_checkpoint(int i, const StageOutput& output, core::StageConte
         // the report below and the histograms of report.html all read them.
         figures_ = volume::tet_figures(mesh);
         io::write_tet_mesh_vtu(mesh, out_.checkpoint(stage).string(), fields, &figures_);
+        committed(out_.checkpoint(stage));
         if (stage.name == "tetra" && stages_[last_].name == "refine" &&
             recipe_.output.quality_report)
             tetra_histograms_ =
@@ -585,6 +618,7 @@ Quality Run::write_checkpoint(int i, const StageOutput& output, core::StageConte
     }
     const auto& surface = std::get<core::SurfaceNetwork>(data_);
     io::write_surface_vtu(surface, out_.checkpoint(stage).string(), fields, output.point_arrays);
+    committed(out_.checkpoint(stage));
     const SurfaceReport report = surface_report(surface);
     return {report.json, report.line};
 }
@@ -617,7 +651,9 @@ void Run::write_stage_summary(int i, const core::StageContext& ctx, double wall,
     }
     part << "],\n     \"quality\": " << quality.json << "}";
     io::write_text_atomically(out_.with_ext(stage, ".json").string(), part.str());
-    io::write_text_atomically(out_.with_ext(stage, ".hash").string(), hashes_[i] + "\n");
+    committed(out_.with_ext(stage, ".json"));
+    io::write_text_atomically(out_.with_ext(stage, ".hash").string(), hashes_[i] + "\n");  // last
+    committed(out_.with_ext(stage, ".hash"));
     char buf[120];
     std::snprintf(buf, sizeof buf, "%s done in %.2f s, peak memory %.0f MB: ", stage.name.c_str(),
                   wall, peak_rss_mb());
@@ -627,7 +663,14 @@ void Run::write_stage_summary(int i, const core::StageContext& ctx, double wall,
 // The final result: mesh.vtu for a tetrahedral mesh (a copy of the last checkpoint, or
 // written again with the region names) plus the other formats asked for, and the
 // quality report after refine; surface.vtu, a copy of the last checkpoint, for a surface.
-// When every stage was up to date, only missing result files are written.
+//
+// Each result file is tied to what it was made from (issue 21): checkpoints/results.hash
+// lists "NAME KEY" per file, KEY being results_key(). A file is written again when a stage
+// ran, when it is missing, or when its KEY differs (e.g. after a run killed right after
+// mesh.vtu was renamed, mesh.inp and report.html of the previous parameters are not
+// kept). Commit order as for a stage's .hash: the record is removed before the first
+// result file is replaced and written after the last, so an interruption in between
+// leaves no record and the next run writes every result again.
 std::string Run::write_results() {
     check_cancelled("before writing the result");
     prepare_folder();
@@ -635,18 +678,67 @@ std::string Run::write_results() {
     const fs::path last_checkpoint = out_.checkpoint(stages_[last_]);
     const bool tet_result = stages_[last_].out == Kind::Tets;
     const fs::path result = out_.dir / (tet_result ? "mesh.vtu" : "surface.vtu");
-    if ((!tet_result || names_.empty()) && (ran_any || !fs::exists(result)))
+    std::vector<fs::path> files = {result};
+    if (tet_result) {
+        for (const std::string& name : recipe_.output.formats)
+            if (const io::MeshFormat format = io::format_from_name(name);
+                format != io::MeshFormat::Vtu)
+                files.push_back(out_.dir / io::export_file_name(format));
+        if (recipe_.output.quality_report && stages_[last_].name == "refine")
+            files.push_back(out_.dir / "report.html");
+    }
+    const fs::path record_path = out_.dir / "checkpoints" / "results.hash";
+    std::map<std::string, std::string> record;
+    std::istringstream lines(fs::exists(record_path) ? read_text(record_path) : "");
+    for (std::string name, key; lines >> name >> key;) record[name] = key;
+    const std::string key = results_key();
+    std::vector<fs::path> stale;
+    for (const fs::path& file : files) {
+        const auto entry = record.find(file.filename().string());
+        if (ran_any || !fs::exists(file) || entry == record.end() || entry->second != key)
+            stale.push_back(file);
+    }
+    if (!stale.empty()) {
+        fs::remove(record_path);
+        committed(record_path);
+    }
+    if ((!tet_result || names_.empty()) &&
+        std::find(stale.begin(), stale.end(), result) != stale.end()) {
         io::write_atomically(result.string(), [&](const std::string& temp) {
             fs::copy_file(last_checkpoint, temp, fs::copy_options::overwrite_existing);
         });
-    if (tet_result) write_exports(result, last_checkpoint, ran_any);
+        committed(result);
+    }
+    if (tet_result) write_exports(result, last_checkpoint, stale, ran_any);
+    if (!stale.empty()) {
+        for (const fs::path& file : files) record[file.filename().string()] = key;
+        std::string text;
+        for (const auto& [name, file_key] : record) text += name + " " + file_key + "\n";
+        io::write_text_atomically(record_path.string(), text);  // last
+        committed(record_path);
+    }
     write_pvd();
     write_summary("ok", "");
     return result.string();
 }
 
-void Run::write_exports(const fs::path& result, const fs::path& last_checkpoint, bool ran_any) {
-    auto wanted = [&](const fs::path& file) { return ran_any || !fs::exists(file); };
+// What the result files are made from: the last stage's hash (which chains the input and
+// every stage's parameters) and the label names the exports carry.
+std::string Run::results_key() const {
+    Hash h;
+    h.add(hashes_[last_]);
+    for (const auto& [label, name] : names_.names()) {
+        h.add(std::to_string(label));
+        h.add(name);
+    }
+    return h.hex();
+}
+
+void Run::write_exports(const fs::path& result, const fs::path& last_checkpoint,
+                        const std::vector<fs::path>& stale, bool ran_any) {
+    auto wanted = [&](const fs::path& file) {
+        return std::find(stale.begin(), stale.end(), file) != stale.end();
+    };
     std::vector<std::pair<fs::path, io::MeshFormat>> exports;
     if (!names_.empty() && wanted(result)) exports.emplace_back(result, io::MeshFormat::Vtu);
     for (const std::string& name : recipe_.output.formats) {
@@ -654,8 +746,7 @@ void Run::write_exports(const fs::path& result, const fs::path& last_checkpoint,
         const fs::path file = out_.dir / io::export_file_name(format);
         if (format != io::MeshFormat::Vtu && wanted(file)) exports.emplace_back(file, format);
     }
-    const bool report = recipe_.output.quality_report && stages_[last_].name == "refine" &&
-                        wanted(out_.dir / "report.html");
+    const bool report = wanted(out_.dir / "report.html");
     if (exports.empty() && !report) return;
     const core::TetMesh mesh = std::holds_alternative<core::TetMesh>(data_)
                                    ? std::get<core::TetMesh>(std::move(data_))
@@ -664,6 +755,7 @@ void Run::write_exports(const fs::path& result, const fs::path& last_checkpoint,
         {"frame", frame_}, {"stage", stages_[last_].name}, {"frontmesh_version", version()}};
     for (const auto& [file, format] : exports) {
         io::write_mesh(mesh, file.string(), format, names_, fields);
+        committed(file);
         info("wrote " + file.string());
     }
     if (report) {
@@ -675,6 +767,7 @@ void Run::write_exports(const fs::path& result, const fs::path& last_checkpoint,
         write_quality_report(out_.dir.string(), mesh,
                              tetra_histograms_ ? &*tetra_histograms_ : nullptr, recipe_.path,
                              figures_.size() == mesh.tet_count() && ran_any ? &figures_ : nullptr);
+        committed(out_.dir / "report.html");
         info("wrote " + (out_.dir / "report.html").string());
     }
 }

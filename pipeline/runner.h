@@ -3,6 +3,7 @@
 // timing and the output folder (STYLE §3).
 
 #include <atomic>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -20,12 +21,18 @@ struct RunOptions {
     /// runner's own flag, set by SIGINT and SIGTERM while the run lasts (its handlers are
     /// installed for that time and the previous ones put back after).
     const std::atomic<bool>* cancel = nullptr;
+    /// Called with the path of each file the run commits (renames into place, or removes
+    /// as the first step of replacing it: a stage's .hash, checkpoints/results.hash), in
+    /// commit order. An exception from it ends the run at that point as a kill would: tests
+    /// stop a run between two renames with it. Null: nothing is called.
+    std::function<void(const std::string& path)> on_commit;
 };
 
 /// Stage names in pipeline order, of the stages this build can run.
 const std::vector<std::string>& stage_names();
 
-/// Runs the recipe. Writes checkpoints/NN-STAGE.vtu (+ .hash, .json), run.pvd, summary.json,
+/// Runs the recipe. Writes checkpoints/NN-STAGE.vtu (+ .hash, .json, the .hash last),
+/// checkpoints/results.hash (what the result files were made from), run.pvd, summary.json,
 /// frontmesh.log, what stages hand to their diagnostics sink (diagnostics/STAGE-NAME.vtu)
 /// and the final result into recipe.output.dir, all atomically.
 /// Returns the path of the final result. Throws InputError for bad input (exit 2),

@@ -4,6 +4,8 @@
 
 #include <filesystem>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include <catch2/catch.hpp>
 
@@ -138,7 +140,7 @@ TEST_CASE("a recipe with a key twice, or that is not a readable file, is bad inp
     fs::create_directories(dir + "/folder.yaml");
     expect_bad("folder.yaml", "folder.yaml' is a folder");
     REQUIRE(mkfifo((dir + "/pipe.yaml").c_str(), 0600) == 0);
-    expect_bad("pipe.yaml", "pipe.yaml' is not a regular file");
+    expect_bad("pipe.yaml", "pipe.yaml' is a named pipe, not a regular file");
 }
 
 TEST_CASE("cohort checks its output folder as run does", "[pipeline]") {
@@ -159,4 +161,77 @@ TEST_CASE("cohort checks its output folder as run does", "[pipeline]") {
         CHECK(std::count(r.err.begin(), r.err.end(), '\n') == 1);
         CHECK(entries_below(dir) == before);
     }
+}
+
+TEST_CASE("a path over PATH_MAX, or a result name taken by a folder or pipe, is refused",
+          "[pipeline]") {
+    const std::string dir = phantom_dir("outdir_names");
+    SECTION("a path longer than PATH_MAX") {
+        std::string deep;
+        for (int i = 0; i < 20; ++i) deep += std::string(250, 'd') + "/";
+        expect_refused_both(dir, "--set output.dir=" + deep, "characters long; at most");
+    }
+    fs::create_directories(dir + "/used/checkpoints");
+    write_file(dir + "/used/.frontmesh-output", "frontmesh\n");
+    SECTION("summary.json is a folder") {
+        fs::create_directories(dir + "/used/summary.json");
+        expect_refused_both(dir, "--set output.dir=used", "summary.json' is a folder, not a file");
+    }
+    SECTION("an export's name is a folder") {
+        fs::create_directories(dir + "/used/mesh.inp");
+        expect_refused_both(dir, "--set output.dir=used --set output.formats=[vtu,inp]",
+                            "mesh.inp' is a folder, not a file");
+    }
+    SECTION("frontmesh.log is a named pipe (opening it would block)") {
+        REQUIRE(mkfifo((dir + "/used/frontmesh.log").c_str(), 0600) == 0);
+        expect_refused_both(dir, "--set output.dir=used", "frontmesh.log' is a named pipe");
+    }
+    SECTION("a named pipe among the checkpoints") {
+        REQUIRE(mkfifo((dir + "/used/checkpoints/01-extract.vtu").c_str(), 0600) == 0);
+        expect_refused_both(dir, "--set output.dir=used", "01-extract.vtu' is a named pipe");
+    }
+}
+
+TEST_CASE("a named pipe or folder given as an input is refused without opening it", "[pipeline]") {
+    const std::string dir = phantom_dir("outdir_pipes");
+    REQUIRE(mkfifo((dir + "/pipe.mha").c_str(), 0600) == 0);
+    REQUIRE(mkfifo((dir + "/pipe.stl").c_str(), 0600) == 0);
+    REQUIRE(mkfifo((dir + "/pipe.txt").c_str(), 0600) == 0);
+    REQUIRE(mkfifo((dir + "/pipe.csv").c_str(), 0600) == 0);
+    REQUIRE(mkfifo((dir + "/pipe.vtu").c_str(), 0600) == 0);
+    fs::create_directories(dir + "/folder.stl");
+    // A reader that opened a pipe would wait for a writer forever: each of these would hang.
+    expect_refused_both(dir, "--set input.image=pipe.mha", "pipe.mha' is a named pipe");
+    expect_refused_both(dir, "--set input.label_names=pipe.txt", "pipe.txt' is a named pipe");
+    write_file(dir + "/pipe.yaml", "input:\n  surface: pipe.stl\noutput:\n  dir: out\n");
+    write_file(dir + "/folder.yaml", "input:\n  surface: folder.stl\noutput:\n  dir: out\n");
+    for (const auto& [command, needle] : std::vector<std::pair<std::string, std::string>>{
+             {"run pipe.yaml", "pipe.yaml:2: input.surface: '"},
+             {"validate pipe.yaml", "pipe.stl' is a named pipe, not a regular file"},
+             {"run folder.yaml", "folder.stl' is a folder; give a file"},
+             {"cohort pipe.csv --recipe recipe.yaml", "pipe.csv' is a named pipe"},
+             {"check pipe.vtu", "pipe.vtu' is a named pipe"},
+             {"convert pipe.vtu x.msh", "pipe.vtu' is a named pipe"}}) {
+        const std::size_t before = entries_below(dir);
+        const auto r = run_frontmesh(command + " --quiet", dir);
+        INFO(command << "\n" << r.err);
+        CHECK(r.exit_code == 2);
+        CHECK_THAT(r.err, Catch::Contains(needle));
+        CHECK(std::count(r.err.begin(), r.err.end(), '\n') == 1);
+        CHECK(entries_below(dir) == before);
+    }
+}
+
+TEST_CASE("a key given twice in a --set value or as two spellings of a label is refused",
+          "[pipeline]") {
+    const std::string dir = phantom_dir("outdir_twice");
+    expect_refused_both(dir, "--set 'remesh.label_edge_length={1: 0.5, 1: 0.7}'",
+                        "--set remesh.label_edge_length.1: given twice");
+    write_file(dir + "/labels.yaml",
+               "input:\n  image: ball.mha\nremesh:\n  label_edge_length: {1: 0.5, 01: 0.7}\n");
+    const auto r = run_frontmesh("validate labels.yaml", dir);
+    INFO(r.err);
+    CHECK(r.exit_code == 2);
+    CHECK_THAT(r.err, Catch::Contains("labels.yaml:4: remesh.label_edge_length: label 1 is "
+                                      "given twice"));
 }

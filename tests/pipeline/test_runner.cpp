@@ -10,13 +10,17 @@
 #include <atomic>
 #include <cerrno>
 #include <filesystem>
+#include <functional>
+#include <map>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include <tbb/parallel_for.h>
 #include <catch2/catch.hpp>
 
 #include "io/mesh_io.h"
+#include "pipeline/core/error.h"
 #include "pipeline/core/stage_context.h"
 #include "pipeline/diagnostics.h"
 #include "pipeline/recipe.h"
@@ -184,4 +188,110 @@ TEST_CASE("summary.json lists the diagnostics of its stages", "[pipeline]") {
     REQUIRE(forced.exit_code == 0);
     CHECK_FALSE(fs::exists(out / "diagnostics/repair-hole.vtu"));
     CHECK_THAT(slurp(out / "summary.json"), Catch::Contains("\"diagnostics\": []"));
+}
+
+namespace {
+
+// The files a run leaves that must not depend on timing (the log, the summaries and the
+// stages' .json hold wall times), by path below `dir`, with their bytes.
+std::map<std::string, std::string> result_files(const fs::path& dir) {
+    std::map<std::string, std::string> files;
+    for (const auto& entry : fs::recursive_directory_iterator(dir)) {
+        const std::string name = fs::relative(entry.path(), dir).string();
+        if (entry.is_regular_file() && entry.path().extension() != ".json" &&
+            entry.path().extension() != ".log")
+            files[name] = slurp(entry.path());
+    }
+    return files;
+}
+
+// Thrown at a chosen commit: the run ends there, as a kill -9 would end it.
+struct SimulatedKill {};
+
+}  // namespace
+
+TEST_CASE("a run stopped between any two commits resumes to the uninterrupted result",
+          "[pipeline]") {
+    const std::string dir = ball_run_dir("run_commits");
+    // P1 and P2 differ in tetra only, so a P2 run over a P1 folder commits tetra, refine
+    // and the result files; resuming with P1 is the case of the issue: P1's hashes must
+    // not be paired with P2's checkpoints.
+    auto run = [&](const fs::path& out, const std::string& stretching,
+                   std::function<void(const std::string&)> on_commit = {}) {
+        const pipeline::Recipe recipe = pipeline::load_recipe(
+            dir + "/recipe.yaml", {"output.dir=" + out.string(), "output.formats=[vtu, inp]",
+                                   "tetra.stretching=" + stretching});
+        pipeline::RunOptions options;
+        options.quiet = true;
+        options.on_commit = std::move(on_commit);
+        pipeline::run_recipe(recipe, options);
+    };
+    const fs::path p1 = fs::path(dir) / "p1", p2 = fs::path(dir) / "p2";
+    run(p1, "1.15");
+    run(p2, "1.3");
+    const auto expected_p1 = result_files(p1), expected_p2 = result_files(p2);
+    REQUIRE(expected_p1.count("mesh.inp") == 1);
+    REQUIRE(expected_p1.count("report.html") == 1);
+    REQUIRE(expected_p1.at("checkpoints/04-tetra.vtu") !=
+            expected_p2.at("checkpoints/04-tetra.vtu"));
+
+    const fs::path work = fs::path(dir) / "work";
+    auto restore_p1 = [&] {
+        fs::remove_all(work);
+        fs::copy(p1, work, fs::copy_options::recursive);
+    };
+    restore_p1();
+    std::vector<std::string> commits;
+    run(work, "1.3", [&](const std::string& path) { commits.push_back(path); });
+    CHECK(result_files(work) == expected_p2);
+    // remove and write the .hash of tetra and refine around their checkpoints and .json,
+    // then the record, mesh.vtu, mesh.inp, report.html and the record again.
+    REQUIRE(commits.size() >= 12);
+
+    for (std::size_t k = 0; k < commits.size(); ++k) {
+        for (const char* resume : {"1.15", "1.3"}) {
+            INFO("stopped after commit " << k << " (" << commits[k] << "), resumed with "
+                                         << resume);
+            restore_p1();
+            std::size_t seen = 0;
+            CHECK_THROWS_AS(run(work, "1.3",
+                                [&](const std::string&) {
+                                    if (seen++ == k) throw SimulatedKill{};
+                                }),
+                            SimulatedKill);
+            run(work, resume);
+            CHECK(result_files(work) ==
+                  (std::string(resume) == "1.15" ? expected_p1 : expected_p2));
+        }
+    }
+}
+
+TEST_CASE("temporary files of a killed run are removed, those of live writers kept", "[pipeline]") {
+    const std::string dir = ball_run_dir("run_stale_temp");
+    const pipeline::Recipe recipe =
+        pipeline::load_recipe(dir + "/recipe.yaml", {"output.dir=" + dir + "/out"});
+    pipeline::RunOptions options;
+    options.quiet = true;
+    options.until = "extract";
+    pipeline::run_recipe(recipe, options);
+    // A pid above any pid_max (2^22) names a process that cannot exist.
+    const fs::path out = fs::path(dir) / "out";
+    const std::vector<fs::path> stale = {out / ".summary.json.tmp-99999999-0",
+                                         out / "checkpoints/.02-repair.vtu.tmp-99999999-3"};
+    const fs::path live =
+        out / ("checkpoints/.02-repair.vtu.tmp-" + std::to_string(getpid()) + "-7");
+    const fs::path other = out / "checkpoints/.notes.tmp-x";
+    for (const fs::path& file : stale) write_file(file.string(), "partial");
+    write_file(live.string(), "being written");
+    write_file(other.string(), "not ours");
+    pipeline::run_recipe(recipe, options);  // up to date: nothing to compute
+    for (const fs::path& file : stale) CHECK_FALSE(fs::exists(file));
+    CHECK(fs::exists(live));
+    CHECK(fs::exists(other));
+
+    // Only in a folder frontmesh marked as its own.
+    fs::remove(out / ".frontmesh-output");
+    write_file(stale[0].string(), "partial");
+    CHECK_THROWS_AS(pipeline::run_recipe(recipe, options), core::InputError);
+    CHECK(fs::exists(stale[0]));
 }
