@@ -44,9 +44,18 @@ RegionResult RegionMesher::run() {
             "the front degenerated (more than 4 times the triangles of the region's boundary; "
             "a layer thinner than the elements?)");
     }
-    const std::int64_t closing_rounds = close_cavities();
-    // Completion path for the cavities the closing rounds leave (volume/tetra_region.cpp).
-    const std::int64_t cones = front_.size() > 0 ? complete_cavities() : 0;
+    // Relaxed filling first, then one completion round (volume/tetra_region.cpp) for the
+    // cavities it leaves, which removes no tets where it fails. Only then rounds that remove
+    // rings of tets and re-advance: in a layer thinner than h they put new points into ever
+    // smaller gaps (torture seed 8: 128 front triangles after the levels, 3,370 after eight
+    // rounds, which the cones could not fill; the cones alone closed the 128). The full
+    // completion path takes what they leave.
+    std::int64_t closing_rounds = close_cavities(0, 0);
+    std::int64_t cones = front_.size() > 0 ? complete_cavities(1) : 0;
+    if (front_.size() > 0) {
+        closing_rounds += close_cavities(1, params_.max_closing_rounds);
+        if (front_.size() > 0) cones += complete_cavities(kCompletionRounds);
+    }
     if (front_.size() > 0) {
         diagnose_open_front();
         fail("the front cannot be closed");

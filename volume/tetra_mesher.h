@@ -278,13 +278,17 @@ private:
     void remove_tet(std::int32_t t);
     bool remesh_around(std::int32_t f);
     // closing phase
-    std::int64_t close_cavities();
+    std::int64_t close_cavities(std::int32_t first, std::int32_t last);
     void closing_round(std::int32_t rings);
     void remove_rings(std::int32_t rings);
     void remove_rings_at(std::vector<std::int32_t> nodes, std::int32_t rings);
     void fill_relaxed();
     // completion path
-    std::int64_t complete_cavities();
+    /// At most this many completion rounds per region: a round tries every cavity once; a
+    /// cavity that fails grows by a ring of tets before the next round. The count of rounds is
+    /// the bound.
+    static constexpr std::int32_t kCompletionRounds = 4;
+    std::int64_t complete_cavities(std::int32_t rounds);
     std::vector<std::vector<std::int32_t>> front_cavities() const;
     bool fill_star(const std::vector<std::int32_t>& cavity);
     std::vector<std::int32_t> front_cavity_of(std::int32_t g) const;

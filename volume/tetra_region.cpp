@@ -36,11 +36,11 @@ std::string RegionMesher::where(std::int32_t v) const {
 
 // ---- closing phase (beyond the paper) ---------------------------------------------------------
 
-/// Closing rounds until the front is empty, at most max_closing_rounds + 1; their number.
-std::int64_t RegionMesher::close_cavities() {
+/// Closing rounds `first` to `last` (rings removed = the round) until the front is empty;
+/// their number (at most last - first + 1).
+std::int64_t RegionMesher::close_cavities(std::int32_t first, std::int32_t last) {
     std::int64_t closing_rounds = 0;
-    for (std::int32_t round = 0; front_.size() > 0 && round <= params_.max_closing_rounds;
-         ++round) {
+    for (std::int32_t round = first; front_.size() > 0 && round <= last; ++round) {
         sink_.check_cancelled();
         ++closing_rounds;
         closing_round(round);
@@ -130,10 +130,6 @@ void RegionMesher::fill_relaxed() {
 // passes the exact validity test. Not every cavity is filled: one that wraps around an island
 // (a shell around an inner boundary) is star-shaped from no point.
 
-/// At most this many completion rounds per region: a round tries every cavity once; a cavity
-/// that fails grows by a ring of tets before the next round. The count of rounds is the bound.
-constexpr std::int32_t kCompletionRounds = 4;
-
 /// The search of a relaxed try (as try_base sets it up) for base bk.
 RegionMesher::Search RegionMesher::relaxed_search(const Base& bk) const {
     Search s;
@@ -145,10 +141,11 @@ RegionMesher::Search RegionMesher::relaxed_search(const Base& bk) const {
     return s;
 }
 
-/// Completion rounds until the front is empty, at most kCompletionRounds; the cavities filled.
-std::int64_t RegionMesher::complete_cavities() {
+/// Completion rounds until the front is empty, at most `rounds` (<= kCompletionRounds); the
+/// cavities filled. A failed cavity loses a ring of tets only when another round follows.
+std::int64_t RegionMesher::complete_cavities(std::int32_t rounds) {
     std::int64_t cones = 0;
-    for (std::int32_t round = 0; round < kCompletionRounds && front_.size() > 0; ++round) {
+    for (std::int32_t round = 0; round < rounds && front_.size() > 0; ++round) {
         sink_.check_cancelled();
         std::vector<std::int32_t> stuck;
         for (const std::vector<std::int32_t>& cavity : front_cavities()) {
@@ -159,7 +156,7 @@ std::int64_t RegionMesher::complete_cavities() {
             for (std::int32_t f : cavity)
                 stuck.insert(stuck.end(), front_.face(f).v.begin(), front_.face(f).v.end());
         }
-        if (!stuck.empty()) remove_rings_at(std::move(stuck), 1);
+        if (!stuck.empty() && round + 1 < rounds) remove_rings_at(std::move(stuck), 1);
     }
     return cones;
 }
