@@ -84,7 +84,8 @@ void write_abaqus(const core::TetMesh& mesh, const std::string& path, const Labe
     const auto sides = face_tets(mesh);
     write_atomically(path, [&](const std::string& temp) {
         TextOut out(temp);
-        out << "*HEADING\nfrontmesh tetrahedral mesh: " << mesh.node_count() << " nodes, "
+        // No *HEADING: a deck may hold only one, and users *INCLUDE this file in their own.
+        out << "** frontmesh tetrahedral mesh: " << mesh.node_count() << " nodes, "
             << mesh.tet_count() << " C3D4 elements, " << regions.size() << " regions, "
             << surfaces.size() << " surfaces\n";
         out << "** Tag numbers, the same in every format and for every subject: region = its\n"

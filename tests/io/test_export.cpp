@@ -576,6 +576,7 @@ TEST_CASE("tags do not depend on which other labels a run meshes", "[io][export]
                 m.add_tet(all.tets[t][0], all.tets[t][1], all.tets[t][2], all.tets[t][3],
                           all.region[t]);
         core::derive_boundary_faces(m);
+        m.surface_vertices = static_cast<std::int32_t>(m.node_count());  // not renumbered
         subset = m;
     }
     const io::LabelTable names = names_for_cube();
@@ -612,6 +613,12 @@ TEST_CASE("tags do not depend on which other labels a run meshes", "[io][export]
             if (m == &all) CHECK(got.at("\"interface_Grey_matter_White_matter_WM\"") == "2 100002");
         }
     }
+    // VTU: region = label in the cell array; the surface tags in field data.
+    io::write_mesh(subset, dir + "/subset.vtu", io::MeshFormat::Vtu, names);
+    io::MeshReadInfo info;
+    io::read_mesh(dir + "/subset.vtu", nullptr, &info);
+    CHECK_THAT(info.fields["surface_tags"],
+               Catch::Contains("200007 interface_White_matter_WM_CSF\n"));
     CHECK(io::surface_tag(7, 2) == 200007);
     CHECK(io::surface_tag(0, 7) == 7);
     CHECK(io::surface_tag(io::kMaxInterfaceLabel, io::kTagBase - 1) <= 2147483647);
