@@ -86,7 +86,8 @@ std::map<int, std::array<double, 3>> displacements(const fs::path& dat) {
         std::array<double, 3> v{};
         std::string x[3];
         if (in_block && (s >> node >> x[0] >> x[1] >> x[2])) {
-            for (int k = 0; k < 3; ++k) v[static_cast<std::size_t>(k)] = std::strtod(x[k].c_str(), nullptr);
+            for (int k = 0; k < 3; ++k)
+                v[static_cast<std::size_t>(k)] = std::strtod(x[k].c_str(), nullptr);
             u[node] = v;
         } else if (in_block && !line.empty() && line.find_first_not_of(' ') != std::string::npos) {
             in_block = false;
@@ -170,7 +171,8 @@ TEST_CASE("CalculiX solves the .inp of a single-region phantom unchanged",
                        ", MATERIAL=TISSUE\n*BOUNDARY\nboundary_NODES, 1, 3\n",
                    "*DLOAD\nALLELEMENTS, GRAV, 9810., 0., 0., -1.\n", node_count(out / "mesh.inp"));
     // The re-read .inp (numbers of at most 20 characters) still holds the remeshed surface.
-    const auto check = run_frontmesh("check out/mesh.inp --surface out/checkpoints/03-remesh.vtu", dir);
+    const auto check =
+        run_frontmesh("check out/mesh.inp --surface out/checkpoints/03-remesh.vtu", dir);
     INFO(check.out << check.err);
     CHECK(check.exit_code == 0);
     CHECK_THAT(check.out, Catch::Contains("preserved yes"));
@@ -226,12 +228,12 @@ TEST_CASE("CalculiX solves the .inp of a three-region phantom unchanged",
         for (const auto& [label, set] : sets)
             deck += "*MATERIAL, NAME=M" + std::to_string(label) + "\n*ELASTIC\n" +
                     std::to_string(1000 * label) + "., 0.45\n*DENSITY\n1.E-9\n" +
-                    "*SOLID SECTION, ELSET=" + set + ", MATERIAL=M" + std::to_string(label) +
-                    "\n";
+                    "*SOLID SECTION, ELSET=" + set + ", MATERIAL=M" + std::to_string(label) + "\n";
         deck += "*BOUNDARY\ninterface_CSF_Skull_NODES, 1, 3\n";
-        solve_with_ccx(*out, deck,
-                       "*DSLOAD\nboundary, P, 0.01\n*DLOAD\nALLELEMENTS, GRAV, 9810., 0., 0., -1.\n",
-                       node_count(*out / "mesh.inp"));
+        solve_with_ccx(
+            *out, deck,
+            "*DSLOAD\nboundary, P, 0.01\n*DLOAD\nALLELEMENTS, GRAV, 9810., 0., 0., -1.\n",
+            node_count(*out / "mesh.inp"));
         // The surfaces from either side of an interface are there for contact or tie.
         const std::string inp = slurp(*out / "mesh.inp");
         CHECK_THAT(inp, Catch::Contains("NAME=interface_CSF_Skull\n"));
