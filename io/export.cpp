@@ -442,6 +442,22 @@ void Tokens::fail(const std::string& message) const {
     FM_THROW(InputError, path_ + ":" + std::to_string(line) + ": " + message);
 }
 
+namespace {
+
+/// A surface's name from region names, or from the labels when that is longer than every
+/// format takes: Abaqus 80 characters with the longest suffix "_NODES", Gmsh 128.
+std::string surface_name(const std::string& kind, core::Label a, core::Label b,
+                         const LabelTable& names) {
+    constexpr std::size_t kMaxSurfaceName = 80 - 6;
+    std::string name = kind;
+    if (a != 0) name += "_" + names.safe_name(a);
+    name += "_" + names.safe_name(b);
+    if (name.size() <= kMaxSurfaceName) return name;
+    return kind + (a != 0 ? "_" + std::to_string(a) : "") + "_" + std::to_string(b);
+}
+
+}  // namespace
+
 std::vector<SurfaceGroup> surface_groups(const core::TetMesh& mesh, const LabelTable& names) {
     std::map<std::pair<core::Label, core::Label>, std::vector<std::int32_t>> by_pair;
     for (std::size_t f = 0; f < mesh.face_count(); ++f) {
@@ -454,8 +470,8 @@ std::vector<SurfaceGroup> surface_groups(const core::TetMesh& mesh, const LabelT
         g.lo = pair.first;
         g.hi = pair.second;
         g.tag = surface_tag(g.lo, g.hi);
-        g.name = g.lo == 0 ? "boundary_" + names.safe_name(g.hi)
-                           : "interface_" + names.safe_name(g.lo) + "_" + names.safe_name(g.hi);
+        g.name = g.lo == 0 ? surface_name("boundary", 0, g.hi, names)
+                           : surface_name("interface", g.lo, g.hi, names);
         g.faces = std::move(faces);
         groups.push_back(std::move(g));
     }
@@ -464,7 +480,7 @@ std::vector<SurfaceGroup> surface_groups(const core::TetMesh& mesh, const LabelT
 
 std::string side_name(const SurfaceGroup& g, core::Label from, const LabelTable& names) {
     if (g.is_boundary() || from == g.lo) return g.name;
-    return "interface_" + names.safe_name(g.hi) + "_" + names.safe_name(g.lo);
+    return surface_name("interface", g.hi, g.lo, names);
 }
 
 void check_numeric_tags(const std::vector<RegionGroup>& regions,

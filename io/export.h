@@ -11,9 +11,10 @@
 //   - a surface (the boundary of region r: tag r; the interface between labels a < b: tag
 //     a * kTagBase + b) is a Gmsh 2-D physical group, a MEDIT triangle reference, an
 //     Abaqus *NSET "<name>_NODES" plus element-based *SURFACEs, a FEBio Surface; its name
-//     is "boundary_<r>" or "interface_<a>_<b>". Abaqus and FEBio name both sides of an
-//     interface: "interface_<x>_<y>" is the faces of x's tets that border y (normals from
-//     x into y);
+//     is "boundary_<r>" or "interface_<a>_<b>" (with label numbers for r, a, b where the
+//     names would make it longer than 74 characters: Abaqus takes 80, Gmsh 128). Abaqus and FEBio
+//     name both sides of an interface: "interface_<x>_<y>" is the faces of x's tets that border y
+//     (normals from x into y);
 //   - the whole: Abaqus ELSET ALLELEMENTS, *SURFACE "boundary" and NSET "boundary_NODES"
 //     (every face whose outside is 0; its "** surface" comment gives kAllTag), FEBio
 //     ElementSet "all_elements", Surface "boundary", NodeSet "boundary_NODES". Gmsh and MEDIT

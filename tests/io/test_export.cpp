@@ -641,3 +641,43 @@ TEST_CASE("tags do not depend on which other labels a run meshes", "[io][export]
                       Catch::Contains("labels 25000 and 30000"));
     CHECK_NOTHROW(io::write_mesh(big, dir + "/big.inp", io::MeshFormat::Abaqus, {}));
 }
+
+TEST_CASE("surface names fit Abaqus's 80 and Gmsh's 128 characters", "[io][export]") {
+    // Region names take up to 64 characters; an interface name of two would take up to 139,
+    // which gmsh cuts at 128 and Abaqus rejects: a surface name over 74 characters (80 with
+    // "_NODES") is made of label numbers instead.
+    const core::TetMesh mesh = three_region_cube();
+    io::LabelTable names;
+    names.set(1, std::string(60, 'A'));
+    names.set(2, std::string(64, 'B'));
+    names.set(7, "CSF");
+    const std::string dir = fixtures::temp_dir("export_long_names");
+    for (const auto format :
+         {io::MeshFormat::Msh41, io::MeshFormat::Abaqus, io::MeshFormat::Febio}) {
+        const std::string path = dir + "/" + io::export_file_name(format);
+        io::write_mesh(mesh, path, format, names);
+        const std::string text = [&] {
+            std::ifstream in(path);
+            std::ostringstream s;
+            s << in.rdbuf();
+            return s.str();
+        }();
+        INFO(path);
+        CHECK_THAT(text, Catch::Contains("interface_1_2"));  // 135 characters with names
+        CHECK_THAT(text, Catch::Contains("interface_2_7"));  // 78
+        CHECK_THAT(text, Catch::Contains("interface_" + std::string(60, 'A') + "_CSF"));  // 74
+        if (format == io::MeshFormat::Abaqus) {
+            CHECK_THAT(text, Catch::Contains("NAME=interface_2_1\n"));
+            CHECK_THAT(text, Catch::Contains("NAME=interface_7_2\n"));
+            CHECK_THAT(text, Catch::Contains("NAME=interface_CSF_" + std::string(60, 'A') + "\n"));
+        }
+        std::istringstream lines(text);
+        for (std::string line; std::getline(lines, line);) {
+            if (format == io::MeshFormat::Abaqus && line.rfind("*", 0) == 0 &&
+                line.rfind("**", 0) != 0 && line.find('=') != std::string::npos) {
+                INFO(line);
+                CHECK(line.size() - line.rfind('=') - 1 <= 80);
+            }
+        }
+    }
+}
