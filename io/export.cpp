@@ -143,7 +143,20 @@ std::string region_names_text(const LabelTable& names, const core::TetMesh& mesh
     return s;
 }
 
+/// "TAG NAME" per surface, one per line (VTU field data "surface_tags").
+std::string surface_tags_text(const LabelTable& names, const core::TetMesh& mesh) {
+    std::string s;
+    for (const auto& g : detail::surface_groups(mesh, names))
+        s += std::to_string(g.tag) + " " + g.name + "\n";
+    return s;
+}
+
 }  // namespace
+
+std::int64_t surface_tag(core::Label a, core::Label b) {
+    FM_CHECK(a != b && a >= 0 && b >= 0);
+    return std::int64_t{std::min(a, b)} * kTagBase + std::max(a, b);
+}
 
 MeshFormat format_from_name(const std::string& name) {
     std::string n = lower(name);
@@ -208,7 +221,10 @@ void write_mesh(const core::TetMesh& mesh, const std::string& path, MeshFormat f
     switch (format) {
         case MeshFormat::Vtu: {
             FieldStrings f = fields;
-            if (!names.empty()) f["region_names"] = region_names_text(names, mesh);
+            if (!names.empty()) {
+                f["region_names"] = region_names_text(names, mesh);
+                f["surface_tags"] = surface_tags_text(names, mesh);
+            }
             write_tet_mesh_vtu(mesh, path, f);
             return;
         }
@@ -319,6 +335,24 @@ TextOut::~TextOut() {
     if (file_) std::fclose(file_);
 }
 
+TextOut& TextOut::real_within(double v, int max_chars) {
+    FM_CHECK(max_chars >= 9 && max_chars <= 32);
+    char tmp[40];
+    auto r = std::to_chars(tmp, tmp + sizeof tmp, v);
+    // Fewer significant digits until it fits: at most 17 rounds, each tries the general form
+    // (fixed or scientific, trailing zeros dropped) and the scientific one; 9 characters fit
+    // any double with one digit ("-1e-308" is 7).
+    for (int p = 17; r.ptr - tmp > max_chars && p >= 1; --p) {
+        r = std::to_chars(tmp, tmp + sizeof tmp, v, std::chars_format::general, p);
+        if (r.ptr - tmp <= max_chars) break;
+        r = std::to_chars(tmp, tmp + sizeof tmp, v, std::chars_format::scientific, p - 1);
+    }
+    FM_CHECK(r.ptr - tmp <= max_chars);
+    buf_.append(tmp, static_cast<std::size_t>(r.ptr - tmp));
+    if (buf_.size() > kFlushAt) flush();
+    return *this;
+}
+
 void TextOut::flush() {
     if (!buf_.empty() && std::fwrite(buf_.data(), 1, buf_.size(), file_) != buf_.size())
         failed_ = true;
@@ -408,23 +442,62 @@ void Tokens::fail(const std::string& message) const {
     FM_THROW(InputError, path_ + ":" + std::to_string(line) + ": " + message);
 }
 
+namespace {
+
+/// A surface's name from region names, or from the labels when that is longer than every
+/// format takes: Abaqus 80 characters with the longest suffix "_NODES", Gmsh 128.
+std::string surface_name(const std::string& kind, core::Label a, core::Label b,
+                         const LabelTable& names) {
+    constexpr std::size_t kMaxSurfaceName = 80 - 6;
+    std::string name = kind;
+    if (a != 0) name += "_" + names.safe_name(a);
+    name += "_" + names.safe_name(b);
+    if (name.size() <= kMaxSurfaceName) return name;
+    return kind + (a != 0 ? "_" + std::to_string(a) : "") + "_" + std::to_string(b);
+}
+
+}  // namespace
+
 std::vector<SurfaceGroup> surface_groups(const core::TetMesh& mesh, const LabelTable& names) {
     std::map<std::pair<core::Label, core::Label>, std::vector<std::int32_t>> by_pair;
-    for (std::size_t f = 0; f < mesh.face_count(); ++f)
-        by_pair[{mesh.region_in[f], mesh.region_out[f]}].push_back(static_cast<std::int32_t>(f));
+    for (std::size_t f = 0; f < mesh.face_count(); ++f) {
+        const core::Label a = mesh.region_in[f], b = mesh.region_out[f];
+        by_pair[{std::min(a, b), std::max(a, b)}].push_back(static_cast<std::int32_t>(f));
+    }
     std::vector<SurfaceGroup> groups;
-    int tag = 0;
     for (auto& [pair, faces] : by_pair) {
         SurfaceGroup g;
-        g.in = pair.first;
-        g.out = pair.second;
-        g.tag = ++tag;
-        g.name = g.out == 0 ? "boundary_" + names.safe_name(g.in)
-                            : "interface_" + names.safe_name(g.in) + "_" + names.safe_name(g.out);
+        g.lo = pair.first;
+        g.hi = pair.second;
+        g.tag = surface_tag(g.lo, g.hi);
+        g.name = g.lo == 0 ? surface_name("boundary", 0, g.hi, names)
+                           : surface_name("interface", g.lo, g.hi, names);
         g.faces = std::move(faces);
         groups.push_back(std::move(g));
     }
     return groups;
+}
+
+std::string side_name(const SurfaceGroup& g, core::Label from, const LabelTable& names) {
+    if (g.is_boundary() || from == g.lo) return g.name;
+    return surface_name("interface", g.hi, g.lo, names);
+}
+
+void check_numeric_tags(const std::vector<RegionGroup>& regions,
+                        const std::vector<SurfaceGroup>& groups, const std::string& what) {
+    for (const auto& r : regions)
+        if (r.label >= kTagBase)
+            FM_THROW(InputError, what + ": region label " + std::to_string(r.label) +
+                                     " has no tag number (labels below " +
+                                     std::to_string(kTagBase) +
+                                     " have; relabel, or export .inp / .feb, which name regions)");
+    for (const auto& g : groups)
+        if (g.lo > kMaxInterfaceLabel)
+            FM_THROW(InputError, what + ": the interface between labels " + std::to_string(g.lo) +
+                                     " and " + std::to_string(g.hi) +
+                                     " has no 32-bit tag number (the smaller label " +
+                                     "must be at most " + std::to_string(kMaxInterfaceLabel) +
+                                     "; relabel, or export .inp / .feb, which name surfaces)");
 }
 
 std::vector<RegionGroup> region_groups(const core::TetMesh& mesh, const LabelTable& names) {
@@ -448,13 +521,13 @@ std::vector<std::int32_t> face_nodes(const core::TetMesh& mesh,
     return nodes;
 }
 
-std::vector<std::array<std::int32_t, 2>> face_tets(const core::TetMesh& mesh) {
+std::vector<FaceSides> face_tets(const core::TetMesh& mesh) {
     static constexpr int kFace[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
     std::unordered_map<Key, std::int32_t, KeyHash> index;
     index.reserve(mesh.face_count());
     for (std::size_t f = 0; f < mesh.face_count(); ++f)
         index.emplace(sorted_key(mesh.faces[f]), static_cast<std::int32_t>(f));
-    std::vector<std::array<std::int32_t, 2>> result(mesh.face_count(), {-1, -1});
+    std::vector<FaceSides> result(mesh.face_count());
     for (std::size_t t = 0; t < mesh.tet_count(); ++t)
         for (int k = 0; k < 4; ++k) {
             const std::array<std::int32_t, 3> g{
@@ -462,8 +535,11 @@ std::vector<std::array<std::int32_t, 2>> face_tets(const core::TetMesh& mesh) {
             const auto it = index.find(sorted_key(g));
             if (it == index.end()) continue;
             const auto f = static_cast<std::size_t>(it->second);
-            if (mesh.region_in[f] == mesh.region[t] && same_orientation(g, mesh.faces[f]))
-                result[f] = {static_cast<std::int32_t>(t), k};
+            const bool same = same_orientation(g, mesh.faces[f]);
+            if (same && mesh.region_in[f] == mesh.region[t])
+                result[f].in = {static_cast<std::int32_t>(t), k};
+            else if (!same && mesh.region_out[f] == mesh.region[t])
+                result[f].out = {static_cast<std::int32_t>(t), k};
         }
     return result;
 }

@@ -3,17 +3,30 @@
 // Abaqus .inp, FEBio .feb (write only).
 //
 // Every writer puts the tets with their region and the boundary / interface triangles of
-// mesh.faces, grouped by (region_in, region_out) pair, into the file:
-//   - a region is a Gmsh 3-D physical group (tag = label), a MEDIT tet reference (= label),
-//     an Abaqus *ELSET, a FEBio part (Elements + SolidDomain + placeholder material);
-//   - a (region_in, region_out) pair is a Gmsh 2-D physical group, a MEDIT triangle reference,
-//     an Abaqus *NSET + element-based *SURFACE, a FEBio Surface + NodeSet. Pairs are numbered
-//     1, 2, ... in increasing (region_in, region_out) order; their names are
-//     "boundary_<region>" (region_out 0) and "interface_<region_in>_<region_out>".
+// mesh.faces, grouped by the unordered pair of labels on their two sides, into the file,
+// with the same tag numbers in every format and for every subject (surface_tag below):
+//   - a region (tag = label) is a Gmsh 3-D physical group, a MEDIT tet reference, an Abaqus
+//     *ELSET, a FEBio part (Elements + SolidDomain + placeholder material), the VTU cell
+//     array `region`;
+//   - a surface (the boundary of region r: tag r; the interface between labels a < b: tag
+//     a * kTagBase + b) is a Gmsh 2-D physical group, a MEDIT triangle reference, an
+//     Abaqus *NSET "<name>_NODES" plus element-based *SURFACEs, a FEBio Surface; its name
+//     is "boundary_<r>" or "interface_<a>_<b>" (with label numbers for r, a, b where the
+//     names would make it longer than 74 characters: Abaqus takes 80, Gmsh 128). Abaqus and FEBio
+//     name both sides of an interface: "interface_<x>_<y>" is the faces of x's tets that border y
+//     (normals from x into y);
+//   - the whole: Abaqus ELSET ALLELEMENTS, *SURFACE "boundary" and NSET "boundary_NODES"
+//     (every face whose outside is 0; its "** surface" comment gives kAllTag), FEBio
+//     ElementSet "all_elements", Surface "boundary", NodeSet "boundary_NODES". Gmsh and MEDIT
+//     keep one group per element (a Gmsh element in two physical groups is duplicated by
+//     FEniCSx's gmshio and by MSH 2.2): there the whole mesh is every region and the whole
+//     outer boundary is every surface of tag below kTagBase.
 // Names come from the LabelTable (sanitized), "region_<id>" without one. Node and element
 // numbers in the files are 1-based in TetMesh order; tets keep VTK node order (positive
-// volume), which is also Gmsh's, MEDIT's, Abaqus C3D4's and FEBio tet4's.
+// volume), which is also Gmsh's, MEDIT's, Abaqus C3D4's and FEBio tet4's. Abaqus numbers
+// take at most 20 characters (CalculiX's and Abaqus's field width), lines at most 132.
 
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -22,6 +35,20 @@
 #include "pipeline/core/tet_mesh.h"
 
 namespace frontmesh::io {
+
+/// Tag numbers (README "Tag numbers"): region = label; surface between labels a < b (a = 0:
+/// the outside) = a * kTagBase + b; the whole mesh / whole outer boundary = kAllTag.
+inline constexpr std::int64_t kTagBase = 100000;
+inline constexpr std::int64_t kAllTag = kTagBase;
+/// Largest smaller label of an interface whose tag fits a signed 32-bit number (Gmsh and
+/// MEDIT tags): 21473 * kTagBase + 99999 < 2^31.
+inline constexpr core::Label kMaxInterfaceLabel = 21473;
+
+/// The tag of the surface between labels a and b (either order, a != b; 0 = outside):
+/// min * kTagBase + max. Injective for labels below kTagBase; fits 32 bits while
+/// min <= kMaxInterfaceLabel. The Gmsh and MEDIT writers throw InputError outside that
+/// range; Abaqus and FEBio name surfaces instead of numbering them.
+std::int64_t surface_tag(core::Label a, core::Label b);
 
 enum class MeshFormat { Vtu, Msh41, Msh22, Medit, Abaqus, Febio };
 

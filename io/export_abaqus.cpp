@@ -15,19 +15,25 @@ namespace frontmesh::io::detail {
 namespace {
 
 constexpr std::size_t kMaxAbaqusName = 80;
-constexpr int kIdsPerLine = 16;  // Abaqus data lines hold at most 16 entries
+// Abaqus data lines hold at most 16 entries, CalculiX reads lines of at most 132 characters:
+// 10 ids of up to 10 digits with their ", " take 118.
+constexpr int kIdsPerLine = 10;
+// Abaqus and CalculiX read at most 20 characters per number field.
+constexpr int kMaxNumberChars = 20;
 
 /// Abaqus face number (1..4) of our local face k (the face opposite node k):
 /// S1 = nodes 1-2-3 (opposite 4), S2 = 1-4-2 (opposite 3), S3 = 2-4-3 (opposite 1),
 /// S4 = 3-4-1 (opposite 2).
 constexpr int kAbaqusFace[4] = {3, 4, 2, 1};
 
-std::string abaqus_name(const SurfaceGroup& g, const std::string& suffix) {
-    std::string name = g.name + suffix;
-    if (name.size() <= kMaxAbaqusName) return name;
-    return (g.out == 0 ? "boundary_" + std::to_string(g.in)
-                       : "interface_" + std::to_string(g.in) + "_" + std::to_string(g.out)) +
-           suffix;
+/// `name + suffix` when it fits Abaqus's 80 characters, else the same with the labels as
+/// numbers ("boundary_<r>", "interface_<x>_<y>").
+std::string abaqus_name(const std::string& name, const SurfaceGroup& g, core::Label from,
+                        const std::string& suffix) {
+    if (name.size() + suffix.size() <= kMaxAbaqusName) return name + suffix;
+    if (g.is_boundary()) return "boundary_" + std::to_string(g.hi) + suffix;
+    const core::Label other = from == g.lo ? g.hi : g.lo;
+    return "interface_" + std::to_string(from) + "_" + std::to_string(other) + suffix;
 }
 
 template <class Ids>
@@ -75,19 +81,30 @@ std::vector<std::string> split_commas(const std::string& line) {
 void write_abaqus(const core::TetMesh& mesh, const std::string& path, const LabelTable& names) {
     const auto regions = region_groups(mesh, names);
     const auto surfaces = surface_groups(mesh, names);
-    const auto owner = face_tets(mesh);
+    const auto sides = face_tets(mesh);
     write_atomically(path, [&](const std::string& temp) {
         TextOut out(temp);
-        out << "*HEADING\nfrontmesh tetrahedral mesh: " << mesh.node_count() << " nodes, "
+        // No *HEADING: a deck may hold only one, and users *INCLUDE this file in their own.
+        out << "** frontmesh tetrahedral mesh: " << mesh.node_count() << " nodes, "
             << mesh.tet_count() << " C3D4 elements, " << regions.size() << " regions, "
             << surfaces.size() << " surfaces\n";
-        out << "** Element sets are regions; surfaces are boundary (region_out 0) and interface\n"
-               "** faces of the tets of region_in. No materials, sections or steps are defined.\n";
+        out << "** Tag numbers, the same in every format and for every subject: region = its\n"
+               "** label; surface between labels a < b (0 = outside) = a * "
+            << kTagBase << " + b; " << kAllTag
+            << " = the whole.\n"
+               "** Element sets: one per region, ALLELEMENTS. Node sets: ALLNODES, "
+               "<surface>_NODES.\n"
+               "** Surfaces (element faces): boundary_<r>; interface_<x>_<y> = the faces of x's\n"
+               "** tets that border y, for both sides; boundary = every face whose outside is 0.\n"
+               "** No materials, sections or steps are defined.\n";
         for (const auto& r : regions) out << "** region " << r.label << ' ' << r.name << '\n';
         out << "*NODE, NSET=ALLNODES\n";
-        for (std::size_t v = 0; v < mesh.node_count(); ++v)
-            out << v + 1 << ", " << mesh.xyz[3 * v] << ", " << mesh.xyz[3 * v + 1] << ", "
-                << mesh.xyz[3 * v + 2] << '\n';
+        for (std::size_t v = 0; v < mesh.node_count(); ++v) {
+            out << v + 1 << ", ";
+            out.real_within(mesh.xyz[3 * v], kMaxNumberChars) << ", ";
+            out.real_within(mesh.xyz[3 * v + 1], kMaxNumberChars) << ", ";
+            out.real_within(mesh.xyz[3 * v + 2], kMaxNumberChars) << '\n';
+        }
         for (const auto& r : regions) {
             out << "*ELEMENT, TYPE=C3D4, ELSET=" << r.name << '\n';
             for (std::int32_t t : r.tets) {
@@ -96,28 +113,51 @@ void write_abaqus(const core::TetMesh& mesh, const std::string& path, const Labe
                     << ", " << q[2] + 1 << ", " << q[3] + 1 << '\n';
             }
         }
+        out << "*ELSET, ELSET=ALLELEMENTS, GENERATE\n1, " << mesh.tet_count() << ", 1\n";
+        // The outer boundary's surface names the element sets of the regions' boundaries.
+        std::vector<std::string> outer_sets;
         for (const auto& g : surfaces) {
-            out << "** surface " << g.tag << ' ' << g.name << " region_in " << g.in
-                << " region_out " << g.out << '\n';
-            out << "*NSET, NSET=" << abaqus_name(g, "_NODES") << '\n';
+            out << "** surface " << g.tag << ' ' << abaqus_name(g.name, g, g.lo, "") << " labels "
+                << g.lo << ' ' << g.hi << '\n';
+            out << "*NSET, NSET=" << abaqus_name(g.name, g, g.lo, "_NODES") << '\n';
             write_id_lines(out, face_nodes(mesh, g.faces));
-            // One element set per Abaqus face number, then the surface made of them.
-            std::vector<std::int32_t> by_face[4];
-            for (std::int32_t f : g.faces) {
-                const auto [tet, k] = owner[static_cast<std::size_t>(f)];
-                if (tet >= 0) by_face[kAbaqusFace[k] - 1].push_back(tet);
+            // Each side: one element set per Abaqus face number, then the surface made of them.
+            for (const core::Label from : {g.lo, g.hi}) {
+                if (from == 0) continue;  // the outside has no elements
+                std::vector<std::int32_t> by_face[4];
+                for (std::int32_t f : g.faces) {
+                    const auto& s = sides[static_cast<std::size_t>(f)];
+                    const auto [tet, k] =
+                        mesh.region_in[static_cast<std::size_t>(f)] == from ? s.in : s.out;
+                    if (tet >= 0) by_face[kAbaqusFace[k] - 1].push_back(tet);
+                }
+                const std::string name = side_name(g, from, names);
+                for (int k = 0; k < 4; ++k) {
+                    if (by_face[k].empty()) continue;
+                    std::sort(by_face[k].begin(), by_face[k].end());
+                    const std::string set =
+                        abaqus_name(name, g, from, "_S" + std::to_string(k + 1));
+                    out << "*ELSET, ELSET=" << set << '\n';
+                    write_id_lines(out, by_face[k]);
+                    if (g.is_boundary()) outer_sets.push_back(set + ", S" + std::to_string(k + 1));
+                }
+                out << "*SURFACE, TYPE=ELEMENT, NAME=" << abaqus_name(name, g, from, "") << '\n';
+                for (int k = 0; k < 4; ++k)
+                    if (!by_face[k].empty())
+                        out << abaqus_name(name, g, from, "_S" + std::to_string(k + 1)) << ", S"
+                            << k + 1 << '\n';
             }
-            for (int s = 0; s < 4; ++s) {
-                if (by_face[s].empty()) continue;
-                std::sort(by_face[s].begin(), by_face[s].end());
-                out << "*ELSET, ELSET=" << abaqus_name(g, "_S" + std::to_string(s + 1)) << '\n';
-                write_id_lines(out, by_face[s]);
-            }
-            out << "*SURFACE, TYPE=ELEMENT, NAME=" << abaqus_name(g, "") << '\n';
-            for (int s = 0; s < 4; ++s)
-                if (!by_face[s].empty())
-                    out << abaqus_name(g, "_S" + std::to_string(s + 1)) << ", S"
-                        << std::to_string(s + 1) << '\n';
+        }
+        if (!outer_sets.empty()) {
+            std::vector<std::int32_t> outer_faces;
+            for (const auto& g : surfaces)
+                if (g.is_boundary())
+                    outer_faces.insert(outer_faces.end(), g.faces.begin(), g.faces.end());
+            out << "** surface " << kAllTag << " boundary: every face whose outside is 0\n";
+            out << "*NSET, NSET=boundary_NODES\n";
+            write_id_lines(out, face_nodes(mesh, outer_faces));
+            out << "*SURFACE, TYPE=ELEMENT, NAME=boundary\n";
+            for (const auto& line : outer_sets) out << line << '\n';
         }
         out.close();
     });

@@ -35,6 +35,11 @@ public:
     TextOut& operator<<(std::int32_t v) { return number(static_cast<std::int64_t>(v)); }
     TextOut& operator<<(std::size_t v) { return number(static_cast<std::int64_t>(v)); }
     TextOut& operator<<(double v) { return number(v); }
+    /// `v` in at most `max_chars` characters (>= 9): its shortest round-trip form when that
+    /// fits, else the most significant digits that fit (general or scientific notation).
+    /// For fixed-width readers such as Abaqus / CalculiX (20 characters per field: at least
+    /// 13 significant digits for any finite double, a relative error below 5e-13).
+    TextOut& real_within(double v, int max_chars);
     /// Flushes and closes; throws IoError naming the file when a write failed.
     void close();
 
@@ -55,14 +60,22 @@ private:
     bool failed_ = false;
 };
 
-/// The (region_in, region_out) pairs of mesh.faces, numbered tag = 1, 2, ... in order.
+/// The surfaces of mesh.faces: one per unordered pair {lo, hi} of the labels on the two
+/// sides (lo < hi; lo = 0 for the outside), in increasing (lo, hi) order, tag =
+/// io::surface_tag(lo, hi). The faces keep their orientation (region_in may be lo or hi).
 struct SurfaceGroup {
-    core::Label in = 0, out = 0;
-    int tag = 0;
-    std::string name;                 ///< boundary_<in> / interface_<in>_<out>
+    core::Label lo = 0, hi = 0;
+    std::int64_t tag = 0;
+    std::string name;                 ///< boundary_<hi> / interface_<lo>_<hi>
     std::vector<std::int32_t> faces;  ///< indices into mesh.faces, increasing
+    bool is_boundary() const { return lo == 0; }
 };
 std::vector<SurfaceGroup> surface_groups(const core::TetMesh& mesh, const LabelTable& names);
+
+/// The name of the side of `g` that faces out of region `from` (g.lo or g.hi):
+/// "interface_<from>_<other>" (the name of an interface as seen from one region), or
+/// g.name for a boundary.
+std::string side_name(const SurfaceGroup& g, core::Label from, const LabelTable& names);
 
 /// The region labels of the tets, increasing, and the tets of each (indices, increasing).
 struct RegionGroup {
@@ -72,14 +85,24 @@ struct RegionGroup {
 };
 std::vector<RegionGroup> region_groups(const core::TetMesh& mesh, const LabelTable& names);
 
+/// Throws InputError naming `what` (a file) when a numeric tag of `groups` or a region
+/// label of `regions` is out of the documented range of io::surface_tag (formats that store
+/// tags as 32-bit numbers: Gmsh, MEDIT).
+void check_numeric_tags(const std::vector<RegionGroup>& regions,
+                        const std::vector<SurfaceGroup>& groups, const std::string& what);
+
 /// Sorted, unique nodes of some faces.
 std::vector<std::int32_t> face_nodes(const core::TetMesh& mesh,
                                      const std::vector<std::int32_t>& faces);
 
 /// For each face of mesh.faces, the tet of region_in with that face as an outward face and
-/// the local face index k (face opposite node k, nodes {1,2,3},{0,3,2},{0,1,3},{0,2,1});
-/// {-1, -1} when there is none (the mesh does not keep the face).
-std::vector<std::array<std::int32_t, 2>> face_tets(const core::TetMesh& mesh);
+/// the local face index k (face opposite node k, nodes {1,2,3},{0,3,2},{0,1,3},{0,2,1}),
+/// then the same for the tet of region_out on the other side; {-1, -1} where there is none
+/// (the outside, or a mesh that does not keep the face).
+struct FaceSides {
+    std::array<std::int32_t, 2> in{-1, -1}, out{-1, -1};
+};
+std::vector<FaceSides> face_tets(const core::TetMesh& mesh);
 
 void write_msh41(const core::TetMesh& mesh, const std::string& path, const LabelTable& names);
 void write_msh22(const core::TetMesh& mesh, const std::string& path, const LabelTable& names);

@@ -53,6 +53,10 @@ int gmsh_nodes_per_element(long long type) {
     }
 }
 
+/// Physical names: every surface (2-D, its tag) and region (3-D, its label). No group
+/// overlaps another: FEniCSx (gmshio.model_to_mesh) would duplicate cells and facets of an
+/// element in two groups, and MSH 2.2 holds one group per element. The whole mesh is every
+/// 3-D group; the whole outer boundary is every 2-D group of tag below kTagBase.
 void write_physical_names(TextOut& out, const std::vector<RegionGroup>& regions,
                           const std::vector<SurfaceGroup>& surfaces) {
     out << "$PhysicalNames\n" << regions.size() + surfaces.size() << '\n';
@@ -88,31 +92,50 @@ void write_bbox(TextOut& out, const core::TetMesh& mesh, const Elements& element
 void write_msh41(const core::TetMesh& mesh, const std::string& path, const LabelTable& names) {
     const auto regions = region_groups(mesh, names);
     const auto surfaces = surface_groups(mesh, names);
+    check_numeric_tags(regions, surfaces, path);
+    // Surface entities: one per surface and side (the label of region_in), so that each is
+    // oriented one way; entity tags 1, 2, ... in surface order.
+    struct SurfaceEntity {
+        const SurfaceGroup* group;
+        core::Label in;
+        std::vector<std::int32_t> faces;
+    };
+    std::vector<SurfaceEntity> entities;
+    for (const auto& g : surfaces)
+        for (const core::Label in : {g.lo, g.hi}) {
+            SurfaceEntity e{&g, in, {}};
+            for (std::int32_t f : g.faces)
+                if (mesh.region_in[static_cast<std::size_t>(f)] == in) e.faces.push_back(f);
+            if (!e.faces.empty()) entities.push_back(std::move(e));
+        }
     write_atomically(path, [&](const std::string& temp) {
         TextOut out(temp);
         out << "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n";
         write_physical_names(out, regions, surfaces);
-        // One surface entity per (region_in, region_out) pair, one volume entity per region
-        // (entity tag = physical tag), each volume bounded by the surfaces of its pairs
-        // (negative tag where the surface's normal points into the volume).
-        out << "$Entities\n0 0 " << surfaces.size() << ' ' << regions.size() << '\n';
-        for (const auto& g : surfaces) {
-            out << g.tag << ' ';
-            write_bbox(out, mesh, mesh.faces, g.faces);
-            out << " 1 " << g.tag << " 0\n";
+        // One volume entity per region (entity tag = label), bounded by the surface entities
+        // of its surfaces (negative tag where the entity's normal points into the volume).
+        // Each entity is in one physical group: its surface's tag or its region's label.
+        out << "$Entities\n0 0 " << entities.size() << ' ' << regions.size() << '\n';
+        for (std::size_t i = 0; i < entities.size(); ++i) {
+            const auto& e = entities[i];
+            out << i + 1 << ' ';
+            write_bbox(out, mesh, mesh.faces, e.faces);
+            out << " 1 " << e.group->tag << " 0\n";
         }
         for (const auto& r : regions) {
             out << r.label << ' ';
             write_bbox(out, mesh, mesh.tets, r.tets);
-            std::vector<int> bounding;
-            for (const auto& g : surfaces) {
-                if (g.in == r.label)
-                    bounding.push_back(g.tag);
-                else if (g.out == r.label)
-                    bounding.push_back(-g.tag);
+            std::vector<std::int64_t> bounding;
+            for (std::size_t i = 0; i < entities.size(); ++i) {
+                const auto& e = entities[i];
+                const auto tag = static_cast<std::int64_t>(i) + 1;
+                if (e.in == r.label)
+                    bounding.push_back(tag);
+                else if (e.group->lo == r.label || e.group->hi == r.label)
+                    bounding.push_back(-tag);
             }
             out << " 1 " << r.label << ' ' << bounding.size();
-            for (int b : bounding) out << ' ' << b;
+            for (std::int64_t b : bounding) out << ' ' << b;
             out << '\n';
         }
         out << "$EndEntities\n";
@@ -129,10 +152,10 @@ void write_msh41(const core::TetMesh& mesh, const std::string& path, const Label
         // Elements: tet t has tag t + 1, face f has tag tets + f + 1.
         const std::size_t nt = mesh.tet_count(), nf = mesh.face_count();
         out << "$Elements\n"
-            << surfaces.size() + regions.size() << ' ' << nt + nf << " 1 " << nt + nf << '\n';
-        for (const auto& g : surfaces) {
-            out << "2 " << g.tag << ' ' << kGmshTriangle << ' ' << g.faces.size() << '\n';
-            for (std::int32_t f : g.faces) {
+            << entities.size() + regions.size() << ' ' << nt + nf << " 1 " << nt + nf << '\n';
+        for (std::size_t i = 0; i < entities.size(); ++i) {
+            out << "2 " << i + 1 << ' ' << kGmshTriangle << ' ' << entities[i].faces.size() << '\n';
+            for (std::int32_t f : entities[i].faces) {
                 const auto& tri = mesh.faces[static_cast<std::size_t>(f)];
                 out << nt + static_cast<std::size_t>(f) + 1 << ' ' << tri[0] + 1 << ' '
                     << tri[1] + 1 << ' ' << tri[2] + 1 << '\n';
@@ -154,7 +177,8 @@ void write_msh41(const core::TetMesh& mesh, const std::string& path, const Label
 void write_msh22(const core::TetMesh& mesh, const std::string& path, const LabelTable& names) {
     const auto regions = region_groups(mesh, names);
     const auto surfaces = surface_groups(mesh, names);
-    std::vector<int> face_tag(mesh.face_count(), 0);
+    check_numeric_tags(regions, surfaces, path);
+    std::vector<std::int64_t> face_tag(mesh.face_count(), 0);
     for (const auto& g : surfaces)
         for (std::int32_t f : g.faces) face_tag[static_cast<std::size_t>(f)] = g.tag;
     write_atomically(path, [&](const std::string& temp) {

@@ -13,17 +13,20 @@ namespace frontmesh::io::detail {
 void write_medit(const core::TetMesh& mesh, const std::string& path, const LabelTable& names) {
     const auto regions = region_groups(mesh, names);
     const auto surfaces = surface_groups(mesh, names);
-    std::vector<int> face_ref(mesh.face_count(), 0);
+    check_numeric_tags(regions, surfaces, path);
+    std::vector<std::int64_t> face_ref(mesh.face_count(), 0);
     for (const auto& g : surfaces)
         for (std::int32_t f : g.faces) face_ref[static_cast<std::size_t>(f)] = g.tag;
     write_atomically(path, [&](const std::string& temp) {
         TextOut out(temp);
         out << "MeshVersionFormatted 2\nDimension 3\n";
-        out << "# frontmesh: tetrahedron reference = region label, triangle reference = surface\n";
+        out << "# frontmesh: tetrahedron reference = region label, triangle reference = surface\n"
+               "# tag (between labels a < b, 0 = outside: a * "
+            << kTagBase << " + b)\n";
         for (const auto& r : regions) out << "# region " << r.label << ' ' << r.name << '\n';
         for (const auto& g : surfaces)
-            out << "# surface " << g.tag << ' ' << g.name << " (region_in " << g.in
-                << ", region_out " << g.out << ")\n";
+            out << "# surface " << g.tag << ' ' << g.name << " (labels " << g.lo << " and " << g.hi
+                << ")\n";
         const std::size_t n = mesh.node_count();
         out << "Vertices\n" << n << '\n';
         for (std::size_t v = 0; v < n; ++v)

@@ -10,6 +10,7 @@ packages=(
   python3 python3-numpy python3-vtk9 python3-meshio   # the meshcheck referee, checkpoint checks
   tetgen                                         # peer mesher for the benchmarks
   gmsh                                           # reads our .msh/.mesh exports back in the tests
+  calculix-ccx                                   # solves our .inp exports in the tests (ccx)
   clang-format                                   # scripts/check-format.sh (CI step)
   snakemake                                      # examples/cohort/Snakefile (local or SLURM)
 )

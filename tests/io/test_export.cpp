@@ -111,16 +111,11 @@ std::vector<std::string> signature(const core::TetMesh& mesh, const std::vector<
     return lines;
 }
 
-/// Group tag per face: 1, 2, ... in increasing (region_in, region_out) order.
+/// Surface tag per face: io::surface_tag of its two labels (README "Tag numbers").
 std::vector<int> pair_tags(const core::TetMesh& mesh) {
-    std::map<std::pair<int, int>, int> tag;
-    for (std::size_t f = 0; f < mesh.face_count(); ++f)
-        tag[{mesh.region_in[f], mesh.region_out[f]}] = 0;
-    int next = 0;
-    for (auto& [pair, t] : tag) t = ++next;
     std::vector<int> tags;
     for (std::size_t f = 0; f < mesh.face_count(); ++f)
-        tags.push_back(tag[{mesh.region_in[f], mesh.region_out[f]}]);
+        tags.push_back(static_cast<int>(io::surface_tag(mesh.region_in[f], mesh.region_out[f])));
     return tags;
 }
 
@@ -432,11 +427,16 @@ TEST_CASE("FEBio export: parts, domains, placeholder materials and surfaces",
         "d.get('mat'))\n"
         "for s in r.findall('Mesh/Surface'): print('surface', s.get('name'), "
         "len(s.findall('tri3')))\n"
+        "for s in r.findall('Mesh/ElementSet'): print('elementset', s.get('name'), s.text)\n"
+        "for s in r.findall('Mesh/NodeSet'): print('nodeset', s.get('name'), "
+        "len(s.text.split(',')))\n"
         "\" '" +
         path + "'");
     INFO(r.out);
     REQUIRE(r.exit_code == 0);
     CHECK_THAT(r.out, Catch::Contains("nodes " + std::to_string(mesh.node_count()) + "\n"));
+    CHECK_THAT(r.out, Catch::Contains(
+                          "elementset all_elements 1:" + std::to_string(mesh.tet_count()) + "\n"));
     std::map<core::Label, std::size_t> per_region;
     for (core::Label l : mesh.region) ++per_region[l];
     for (const auto& [label, count] : per_region) {
@@ -446,18 +446,32 @@ TEST_CASE("FEBio export: parts, domains, placeholder materials and surfaces",
         CHECK_THAT(r.out, Catch::Contains("material " + name + "\n"));
         CHECK_THAT(r.out, Catch::Contains("domain " + name + " " + name + "\n"));
     }
+    // Boundaries once, interfaces from both sides, the whole outer boundary once.
     std::map<std::pair<int, int>, std::size_t> per_pair;
-    for (std::size_t f = 0; f < mesh.face_count(); ++f)
-        ++per_pair[{mesh.region_in[f], mesh.region_out[f]}];
-    for (const auto& [pair, count] : per_pair) {
-        const std::string name = pair.second == 0 ? "boundary_" + names.safe_name(pair.first)
-                                                  : "interface_" + names.safe_name(pair.first) +
-                                                        "_" + names.safe_name(pair.second);
-        CHECK_THAT(r.out, Catch::Contains("surface " + name + " " + std::to_string(count) + "\n"));
+    std::size_t outer = 0;
+    for (std::size_t f = 0; f < mesh.face_count(); ++f) {
+        const int a = mesh.region_in[f], b = mesh.region_out[f];
+        ++per_pair[{std::min(a, b), std::max(a, b)}];
+        outer += b == 0 ? 1 : 0;
     }
+    for (const auto& [pair, count] : per_pair) {
+        std::string n = " ";
+        n += std::to_string(count);
+        n += '\n';
+        if (pair.first == 0) {
+            CHECK_THAT(r.out,
+                       Catch::Contains("surface boundary_" + names.safe_name(pair.second) + n));
+        } else {
+            const std::string a = names.safe_name(pair.first), b = names.safe_name(pair.second);
+            CHECK_THAT(r.out, Catch::Contains("surface interface_" + a + "_" + b + n));
+            CHECK_THAT(r.out, Catch::Contains("surface interface_" + b + "_" + a + n));
+        }
+    }
+    CHECK_THAT(r.out, Catch::Contains("surface boundary " + std::to_string(outer) + "\n"));
+    CHECK_THAT(r.out, Catch::Contains("nodeset boundary_NODES "));
 }
 
-TEST_CASE("Abaqus surfaces are the faces of region_in's tets", "[io][export]") {
+TEST_CASE("Abaqus surfaces: both sides of interfaces, the outer boundary", "[io][export]") {
     const core::TetMesh mesh = three_region_cube();
     const std::string path = fixtures::temp_dir("export_abaqus") + "/mesh.inp";
     io::write_mesh(mesh, path, io::MeshFormat::Abaqus, {});
@@ -483,19 +497,187 @@ TEST_CASE("Abaqus surfaces are the faces of region_in's tets", "[io][export]") {
             surface_sets[surface].push_back(line.substr(0, line.find(',')));
         }
     }
-    std::map<std::pair<int, int>, std::size_t> per_pair;
-    for (std::size_t f = 0; f < mesh.face_count(); ++f)
-        ++per_pair[{mesh.region_in[f], mesh.region_out[f]}];
-    REQUIRE(surface_sets.size() == per_pair.size());
-    for (const auto& [pair, count] : per_pair) {
-        const std::string name = pair.second == 0
-                                     ? "boundary_region_" + std::to_string(pair.first)
-                                     : "interface_region_" + std::to_string(pair.first) +
-                                           "_region_" + std::to_string(pair.second);
+    // Each surface, from each side of an interface, and the whole outer boundary: the faces
+    // of its element sets are the faces of the pair (or of every boundary).
+    std::map<std::string, std::size_t> want;
+    auto region = [](int l) { return "region_" + std::to_string(l); };
+    for (std::size_t f = 0; f < mesh.face_count(); ++f) {
+        const int a = mesh.region_in[f], b = mesh.region_out[f];
+        if (b == 0) {
+            ++want["boundary_" + region(a)];
+            ++want["boundary"];
+        } else {
+            ++want["interface_" + region(a) + "_" + region(b)];
+            ++want["interface_" + region(b) + "_" + region(a)];
+        }
+    }
+    REQUIRE(surface_sets.size() == want.size());
+    for (const auto& [name, count] : want) {
         INFO(name);
         REQUIRE(surface_sets.count(name));
         std::size_t faces = 0;
         for (const auto& s : surface_sets[name]) faces += set_size[s];
         CHECK(faces == count);
+    }
+}
+
+TEST_CASE("Abaqus numbers fit 20 characters and lines 132, values within 1e-12", "[io][export]") {
+    // Issue 22 item 1: CalculiX rejected "-3.414937065768231e-05" (22 characters).
+    core::TetMesh mesh = three_region_cube();
+    const double hard[] = {-3.414937065768231e-05,
+                           -1.2345678901234567e-300,
+                           123456.78901234567,
+                           -0.00012345678901234567,
+                           1.0 / 3.0,
+                           -2.0 / 3.0 * 1e-7};
+    for (std::size_t i = 0; i < mesh.xyz.size(); ++i)
+        mesh.xyz[i] += i < std::size(hard) ? hard[i] : 1e-9 * static_cast<double>(i % 977) / 7.0;
+    const std::string path = fixtures::temp_dir("export_abaqus_numbers") + "/mesh.inp";
+    io::write_mesh(mesh, path, io::MeshFormat::Abaqus, names_for_cube());
+    std::ifstream in(path);
+    std::string line;
+    bool in_nodes = false;
+    std::size_t nodes = 0;
+    while (std::getline(in, line)) {
+        INFO(line);
+        CHECK(line.size() <= 132);
+        if (line[0] == '*') {
+            in_nodes = line.rfind("*NODE", 0) == 0;
+            continue;
+        }
+        if (!in_nodes) continue;
+        ++nodes;
+        std::istringstream fields(line);
+        for (std::string field; std::getline(fields, field, ',');) {
+            while (!field.empty() && field.front() == ' ') field.erase(0, 1);
+            CHECK(field.size() <= 20);
+        }
+    }
+    CHECK(nodes == mesh.node_count());
+    // The hard values move a few nodes far enough to invert tets: keep the file's order.
+    const core::TetMesh back = io::read_mesh(path, nullptr, nullptr, true);
+    REQUIRE(back.xyz.size() == mesh.xyz.size());
+    for (std::size_t i = 0; i < mesh.xyz.size(); ++i) {
+        INFO(i << ": " << mesh.xyz[i] << " read back as " << back.xyz[i]);
+        CHECK(std::abs(back.xyz[i] - mesh.xyz[i]) <= 1e-12 * std::abs(mesh.xyz[i]));
+    }
+    CHECK(back.tets == mesh.tets);
+}
+
+TEST_CASE("tags do not depend on which other labels a run meshes", "[io][export]") {
+    // Issue 22 item 3: the same interface got tag 4 in one run and 3 in another.
+    const core::TetMesh all = three_region_cube();  // labels 1, 2, 7
+    core::TetMesh subset;                           // labels 2, 7 only
+    {
+        core::TetMesh m;
+        m.xyz = all.xyz;
+        for (std::size_t t = 0; t < all.tet_count(); ++t)
+            if (all.region[t] != 1)
+                m.add_tet(all.tets[t][0], all.tets[t][1], all.tets[t][2], all.tets[t][3],
+                          all.region[t]);
+        core::derive_boundary_faces(m);
+        m.surface_vertices = static_cast<std::int32_t>(m.node_count());  // not renumbered
+        subset = m;
+    }
+    const io::LabelTable names = names_for_cube();
+    const std::string dir = fixtures::temp_dir("export_stable_tags");
+    // name -> "dim tag" from $PhysicalNames, and name -> tag from the inp/feb comments.
+    auto physical = [](const std::string& path) {
+        std::map<std::string, std::string> tags;
+        std::ifstream in(path);
+        std::string line;
+        while (std::getline(in, line) && line != "$PhysicalNames") {
+        }
+        std::getline(in, line);
+        for (int n = std::stoi(line); n > 0 && std::getline(in, line); --n) {
+            const auto q = line.find('"');
+            tags[line.substr(q)] = line.substr(0, q - 1);
+        }
+        return tags;
+    };
+    std::map<std::string, std::string> want = {{"\"White_matter_WM\"", "3 2"},
+                                               {"\"CSF\"", "3 7"},
+                                               {"\"boundary_White_matter_WM\"", "2 2"},
+                                               {"\"boundary_CSF\"", "2 7"},
+                                               {"\"interface_White_matter_WM_CSF\"", "2 200007"}};
+    for (const auto format : {io::MeshFormat::Msh41, io::MeshFormat::Msh22}) {
+        for (const core::TetMesh* m : {&all, static_cast<const core::TetMesh*>(&subset)}) {
+            const std::string path = dir + "/" + io::export_file_name(format);
+            io::write_mesh(*m, path, format, names);
+            const auto got = physical(path);
+            for (const auto& [name, tag] : want) {
+                INFO(path << (m == &all ? " labels 1 2 7 " : " labels 2 7 ") << name);
+                REQUIRE(got.count(name));
+                CHECK(got.at(name) == tag);
+            }
+            if (m == &all) CHECK(got.at("\"interface_Grey_matter_White_matter_WM\"") == "2 100002");
+        }
+    }
+    // VTU: region = label in the cell array; the surface tags in field data.
+    io::write_mesh(subset, dir + "/subset.vtu", io::MeshFormat::Vtu, names);
+    io::MeshReadInfo info;
+    io::read_mesh(dir + "/subset.vtu", nullptr, &info);
+    CHECK_THAT(info.fields["surface_tags"],
+               Catch::Contains("200007 interface_White_matter_WM_CSF\n"));
+    CHECK(io::surface_tag(7, 2) == 200007);
+    CHECK(io::surface_tag(0, 7) == 7);
+    CHECK(io::surface_tag(io::kMaxInterfaceLabel, io::kTagBase - 1) <= 2147483647);
+    // Beyond the documented range the numeric formats refuse, naming the labels.
+    core::TetMesh big = all;
+    for (auto& r : big.region)
+        if (r == 7) r = 30000;
+    for (auto& r : big.region_in)
+        if (r == 7) r = 30000;
+    for (auto& r : big.region_out)
+        if (r == 7) r = 30000;
+    CHECK_NOTHROW(io::write_mesh(big, dir + "/big.msh", io::MeshFormat::Msh41, {}));
+    for (auto& r : big.region)
+        if (r == 2) r = 25000;
+    for (auto& r : big.region_in)
+        if (r == 2) r = 25000;
+    for (auto& r : big.region_out)
+        if (r == 2) r = 25000;
+    CHECK_THROWS_WITH(io::write_mesh(big, dir + "/big.msh", io::MeshFormat::Msh41, {}),
+                      Catch::Contains("labels 25000 and 30000"));
+    CHECK_NOTHROW(io::write_mesh(big, dir + "/big.inp", io::MeshFormat::Abaqus, {}));
+}
+
+TEST_CASE("surface names fit Abaqus's 80 and Gmsh's 128 characters", "[io][export]") {
+    // Region names take up to 64 characters; an interface name of two would take up to 139,
+    // which gmsh cuts at 128 and Abaqus rejects: a surface name over 74 characters (80 with
+    // "_NODES") is made of label numbers instead.
+    const core::TetMesh mesh = three_region_cube();
+    io::LabelTable names;
+    names.set(1, std::string(60, 'A'));
+    names.set(2, std::string(64, 'B'));
+    names.set(7, "CSF");
+    const std::string dir = fixtures::temp_dir("export_long_names");
+    for (const auto format :
+         {io::MeshFormat::Msh41, io::MeshFormat::Abaqus, io::MeshFormat::Febio}) {
+        const std::string path = dir + "/" + io::export_file_name(format);
+        io::write_mesh(mesh, path, format, names);
+        const std::string text = [&] {
+            std::ifstream in(path);
+            std::ostringstream s;
+            s << in.rdbuf();
+            return s.str();
+        }();
+        INFO(path);
+        CHECK_THAT(text, Catch::Contains("interface_1_2"));  // 135 characters with names
+        CHECK_THAT(text, Catch::Contains("interface_2_7"));  // 78
+        CHECK_THAT(text, Catch::Contains("interface_" + std::string(60, 'A') + "_CSF"));  // 74
+        if (format == io::MeshFormat::Abaqus) {
+            CHECK_THAT(text, Catch::Contains("NAME=interface_2_1\n"));
+            CHECK_THAT(text, Catch::Contains("NAME=interface_7_2\n"));
+            CHECK_THAT(text, Catch::Contains("NAME=interface_CSF_" + std::string(60, 'A') + "\n"));
+        }
+        std::istringstream lines(text);
+        for (std::string line; std::getline(lines, line);) {
+            if (format == io::MeshFormat::Abaqus && line.rfind("*", 0) == 0 &&
+                line.rfind("**", 0) != 0 && line.find('=') != std::string::npos) {
+                INFO(line);
+                CHECK(line.size() - line.rfind('=') - 1 <= 80);
+            }
+        }
     }
 }

@@ -1,0 +1,242 @@
+// Exports that real solvers run unchanged (issue 22): CalculiX (Debian's calculix-ccx) solves
+// a static step on the .inp of generated single- and multi-region phantoms, and tag numbers
+// do not change when a second run meshes a subset of the labels.
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <catch2/catch.hpp>
+
+#include "io/export.h"
+#include "tests/fixtures/phantoms.h"
+#include "tests/fixtures/skip.h"
+#include "tests/pipeline/cli_helpers.h"
+
+using namespace frontmesh;
+using frontmesh::testing::run_frontmesh;
+using frontmesh::testing::slurp;
+using frontmesh::testing::write_file;
+namespace fs = std::filesystem;
+
+namespace {
+
+struct Shell {
+    int exit_code = -1;
+    std::string out;
+};
+
+Shell shell(const std::string& command) {
+    Shell r;
+    std::FILE* p = popen((command + " 2>&1").c_str(), "r");
+    if (!p) return r;
+    char buf[4096];
+    std::size_t n;
+    while ((n = std::fread(buf, 1, sizeof buf, p)) > 0) r.out.append(buf, n);
+    const int status = pclose(p);
+    r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    return r;
+}
+
+/// Meshes `image` (in `dir`) with `labels` ("all" or "[2, 3]") into dir/NAME, exporting
+/// vtu, msh and inp; names from names.txt in `dir` when it exists. Returns the output folder.
+fs::path mesh_image(const std::string& dir, const std::string& image, const std::string& name,
+                    const std::string& labels) {
+    std::string recipe = "input:\n  image: " + image + "\n  labels: " + labels + "\n";
+    if (fs::exists(dir + "/names.txt")) recipe += "  label_names: names.txt\n";
+    recipe += "output:\n  dir: " + name + "\n  formats: [vtu, msh, inp, feb]\n";
+    write_file(dir + "/" + name + ".yaml", recipe);
+    const auto r = run_frontmesh("run " + name + ".yaml --quiet", dir);
+    INFO(r.err);
+    REQUIRE(r.exit_code == 0);
+    return fs::path(dir) / name;
+}
+
+/// The element sets of the regions: "** region <label> <set>" lines of a .inp we wrote.
+std::map<int, std::string> region_sets(const fs::path& inp) {
+    std::map<int, std::string> sets;
+    std::istringstream in(slurp(inp));
+    for (std::string line; std::getline(in, line);)
+        if (line.rfind("** region ", 0) == 0) {
+            std::istringstream s(line.substr(10));
+            int label = 0;
+            std::string set;
+            s >> label >> set;
+            sets[label] = set;
+        }
+    return sets;
+}
+
+/// The displacements CalculiX printed (*NODE PRINT U) in JOB.dat: node -> (ux, uy, uz).
+std::map<int, std::array<double, 3>> displacements(const fs::path& dat) {
+    std::map<int, std::array<double, 3>> u;
+    std::istringstream in(slurp(dat));
+    bool in_block = false;
+    for (std::string line; std::getline(in, line);) {
+        if (line.find("displacements (vx,vy,vz)") != std::string::npos) {
+            in_block = true;
+            continue;
+        }
+        std::istringstream s(line);
+        int node = 0;
+        std::array<double, 3> v{};
+        std::string x[3];
+        if (in_block && (s >> node >> x[0] >> x[1] >> x[2])) {
+            for (int k = 0; k < 3; ++k)
+                v[static_cast<std::size_t>(k)] = std::strtod(x[k].c_str(), nullptr);
+            u[node] = v;
+        } else if (in_block && !line.empty() && line.find_first_not_of(' ') != std::string::npos) {
+            in_block = false;
+        }
+    }
+    return u;
+}
+
+/// Writes DIR/job.inp around DIR/mesh.inp (included unchanged), runs ccx in DIR and checks
+/// the job finished with a finite, non-zero displacement at every node. `deck` is the
+/// model data between the *INCLUDE and the *STEP; `loads` the step's loads.
+void solve_with_ccx(const fs::path& dir, const std::string& deck, const std::string& loads,
+                    std::size_t nodes) {
+    write_file((dir / "job.inp").string(),
+               "*HEADING\nfrontmesh export solved by CalculiX\n*INCLUDE, INPUT=mesh.inp\n" + deck +
+                   "*STEP\n*STATIC\n" + loads +
+                   "*NODE FILE\nU\n*NODE PRINT, NSET=ALLNODES\nU\n*END STEP\n");
+    const Shell r = shell("cd '" + dir.string() + "' && OMP_NUM_THREADS=1 ccx -i job");
+    INFO(r.out);
+    REQUIRE(r.exit_code == 0);
+    CHECK_THAT(r.out, !Catch::Contains("*ERROR"));
+    CHECK(fs::exists(dir / "job.frd"));
+    const auto u = displacements(dir / "job.dat");
+    CHECK(u.size() == nodes);
+    double max_u = 0;
+    std::size_t non_finite = 0;
+    for (const auto& [node, v] : u)
+        for (double x : v) {
+            if (!std::isfinite(x)) ++non_finite;
+            max_u = std::max(max_u, std::abs(x));
+        }
+    CHECK(non_finite == 0);
+    CHECK(max_u > 0.0);
+}
+
+std::size_t node_count(const fs::path& inp) {
+    std::istringstream in(slurp(inp));
+    std::size_t n = 0;
+    bool nodes = false;
+    for (std::string line; std::getline(in, line);) {
+        if (!line.empty() && line[0] == '*')
+            nodes = line.rfind("*NODE,", 0) == 0;
+        else if (nodes && !line.empty())
+            ++n;
+    }
+    return n;
+}
+
+/// name -> "dim tag" of a .msh's $PhysicalNames.
+std::map<std::string, std::string> physical_names(const fs::path& msh) {
+    std::map<std::string, std::string> tags;
+    std::istringstream in(slurp(msh));
+    std::string line;
+    while (std::getline(in, line) && line != "$PhysicalNames") {
+    }
+    std::getline(in, line);
+    for (int n = std::stoi(line); n > 0 && std::getline(in, line); --n) {
+        const auto q = line.find('"');
+        tags[line.substr(q + 1, line.size() - q - 2)] = line.substr(0, q - 1);
+    }
+    return tags;
+}
+
+}  // namespace
+
+TEST_CASE("CalculiX solves the .inp of a single-region phantom unchanged",
+          "[pipeline][export][ccx]") {
+    if (shell("command -v ccx").exit_code != 0) {
+        FM_SKIP("ccx not installed (scripts/install-deps.sh installs calculix-ccx)");
+    }
+    const std::string dir = fixtures::temp_dir("solver_ccx_single");
+    fixtures::write_metaimage(fixtures::sphere_image(20, 7.0), dir + "/ball.mha");
+    const fs::path out = mesh_image(dir, "ball.mha", "out", "all");
+    const auto sets = region_sets(out / "mesh.inp");
+    REQUIRE(sets.size() == 1);
+    // Fixed outer boundary, gravity: the inside sags.
+    solve_with_ccx(out,
+                   "*MATERIAL, NAME=TISSUE\n*ELASTIC\n1000., 0.45\n*DENSITY\n1.E-9\n"
+                   "*SOLID SECTION, ELSET=" +
+                       sets.begin()->second +
+                       ", MATERIAL=TISSUE\n*BOUNDARY\nboundary_NODES, 1, 3\n",
+                   "*DLOAD\nALLELEMENTS, GRAV, 9810., 0., 0., -1.\n", node_count(out / "mesh.inp"));
+    // The re-read .inp (numbers of at most 20 characters) still holds the remeshed surface.
+    const auto check =
+        run_frontmesh("check out/mesh.inp --surface out/checkpoints/03-remesh.vtu", dir);
+    INFO(check.out << check.err);
+    CHECK(check.exit_code == 0);
+    CHECK_THAT(check.out, Catch::Contains("preserved yes"));
+}
+
+TEST_CASE("tag numbers do not change when a run meshes a subset of the labels",
+          "[pipeline][export]") {
+    const std::string dir = fixtures::temp_dir("solver_tags_subset");
+    fixtures::write_metaimage(fixtures::nested_ellipsoids_image(1.0, 0.6), dir + "/phantom.mha");
+    write_file(dir + "/names.txt", "1 Brain\n2 CSF\n3 Skull\n");
+    const fs::path all = mesh_image(dir, "phantom.mha", "all", "all");
+    const fs::path subset = mesh_image(dir, "phantom.mha", "subset", "[2, 3]");
+
+    // Tags (README "Tag numbers") do not depend on which other labels were meshed.
+    const auto tags_all = physical_names(all / "mesh.msh");
+    const auto tags_subset = physical_names(subset / "mesh.msh");
+    const std::map<std::string, std::string> want = {{"CSF", "3 2"},
+                                                     {"Skull", "3 3"},
+                                                     {"boundary_Skull", "2 3"},
+                                                     {"interface_CSF_Skull", "2 200003"}};
+    for (const auto& [name, tag] : want) {
+        INFO(name);
+        REQUIRE(tags_all.count(name));
+        REQUIRE(tags_subset.count(name));
+        CHECK(tags_all.at(name) == tag);
+        CHECK(tags_subset.at(name) == tag);
+    }
+    CHECK(tags_all.at("interface_Brain_CSF") == "2 100002");
+    for (const auto* out : {&all, &subset}) {
+        const std::string inp = slurp(*out / "mesh.inp");
+        CHECK_THAT(inp, Catch::Contains("** surface 200003 interface_CSF_Skull labels 2 3\n"));
+        const std::string feb = slurp(*out / "mesh.feb");
+        CHECK_THAT(feb, Catch::Contains("<!-- surface 200003: labels 2 and 3 -->"));
+    }
+}
+
+TEST_CASE("CalculiX solves the .inp of a three-region phantom unchanged",
+          "[pipeline][export][ccx]") {
+    if (shell("command -v ccx").exit_code != 0) {
+        FM_SKIP("ccx not installed (scripts/install-deps.sh installs calculix-ccx)");
+    }
+    const std::string dir = fixtures::temp_dir("solver_ccx_multi");
+    fixtures::write_metaimage(fixtures::nested_ellipsoids_image(1.0, 0.6), dir + "/phantom.mha");
+    write_file(dir + "/names.txt", "1 Brain\n2 CSF\n3 Skull\n");
+    const fs::path all = mesh_image(dir, "phantom.mha", "all", "all");
+    const fs::path subset = mesh_image(dir, "phantom.mha", "subset", "[2, 3]");
+    for (const auto* out : {&all, &subset}) {
+        INFO(out->string());
+        const auto sets = region_sets(*out / "mesh.inp");
+        // A material and a section per region; the inner surface of the skull is held (its
+        // nodes), the outer boundary is pressed and every element has weight.
+        std::string deck;
+        for (const auto& [label, set] : sets)
+            deck += "*MATERIAL, NAME=M" + std::to_string(label) + "\n*ELASTIC\n" +
+                    std::to_string(1000 * label) + "., 0.45\n*DENSITY\n1.E-9\n" +
+                    "*SOLID SECTION, ELSET=" + set + ", MATERIAL=M" + std::to_string(label) + "\n";
+        deck += "*BOUNDARY\ninterface_CSF_Skull_NODES, 1, 3\n";
+        solve_with_ccx(
+            *out, deck,
+            "*DSLOAD\nboundary, P, 0.01\n*DLOAD\nALLELEMENTS, GRAV, 9810., 0., 0., -1.\n",
+            node_count(*out / "mesh.inp"));
+        // The surfaces from either side of an interface are there for contact or tie.
+        const std::string inp = slurp(*out / "mesh.inp");
+        CHECK_THAT(inp, Catch::Contains("NAME=interface_CSF_Skull\n"));
+        CHECK_THAT(inp, Catch::Contains("NAME=interface_Skull_CSF\n"));
+    }
+}
