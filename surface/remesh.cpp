@@ -22,6 +22,7 @@
 
 #include "pipeline/core/error.h"
 #include "pipeline/core/quality.h"
+#include "pipeline/core/self_intersection.h"
 #include "surface/remesh_internal.h"
 
 namespace frontmesh::surface {
@@ -476,6 +477,25 @@ bool mesh_round(int round, Rounds& r, RoundResult& result) {
     return true;
 }
 
+// The last resort when the last round still fails (`why`): the background itself, which is
+// closed and oriented (check_background), when it also has no part turned inside out and no
+// crossing faces; else nullopt (the failure stands). A warning names the failure, and
+// `remesh.fallback_to_background` counts it: the result is valid but keeps the background's
+// triangles (and their quality) everywhere.
+std::optional<RemeshResult> background_result(const core::SurfaceNetwork& bg, const SizeField& size,
+                                              const std::string& why, core::StageContext& ctx) {
+    if (!core::inverted_parts(bg).empty() || !core::self_intersections(bg, 1).empty())
+        return std::nullopt;
+    ctx.warn(why +
+             "; the repaired surface is used as it is (not remeshed) so that the run "
+             "goes on");
+    ctx.count("remesh.fallback_to_background", 1.0);
+    std::vector<std::int32_t> vertex_face(bg.vertex_count(), -1);
+    for (std::size_t f = bg.face_count(); f-- > 0;)
+        for (const std::int32_t v : bg.faces[f]) vertex_face[std::size_t(v)] = std::int32_t(f);
+    return finished_result(size, bg, vertex_face, 0, ctx);
+}
+
 }  // namespace
 
 double default_edge_length(const core::SurfaceNetwork& background) {
@@ -509,9 +529,24 @@ RemeshResult remesh(const core::SurfaceNetwork& bg, const RemeshParams& params,
     PatchCache cache(bg, features, sp);
     Rounds rounds{bg, params, features, retry, cache, clock, ctx};
     RoundResult last;
-    for (int round = 0; round < RetryPolicy::kRounds; ++round) {
+    for (int round = 0; round + 1 < RetryPolicy::kRounds; ++round) {
         ctx.check_cancelled();
-        if (mesh_round(round, rounds, last)) break;
+        if (mesh_round(round, rounds, last)) {
+            for (const auto& [name, value] : last.sums) ctx.add(name, value);
+            clock.lap("checks");
+            return finished_result(size, std::move(last.out), last.constraints.vertex_face,
+                                   last.curve_points, ctx);
+        }
+    }
+    ctx.check_cancelled();
+    try {
+        mesh_round(RetryPolicy::kRounds - 1, rounds, last);  // the last: it stands or throws
+    } catch (const core::GeometryError& e) {
+        if (auto result = background_result(bg, size, e.what(), ctx)) return std::move(*result);
+        throw;
+    } catch (const core::MeshingError& e) {
+        if (auto result = background_result(bg, size, e.what(), ctx)) return std::move(*result);
+        throw;
     }
     for (const auto& [name, value] : last.sums) ctx.add(name, value);
     clock.lap("checks");

@@ -65,8 +65,11 @@ double default_edge_length(const core::SurfaceNetwork& background);
 /// by the advancing front (TBB-parallel over patches, deterministic) -> one network with the
 /// curve points shared exactly -> angle-based smoothing with projection and edge flips ->
 /// checks. Counters `remesh.*` go to ctx.
-/// Throws InputError (bad params, empty background), MeshingError (a patch front stalls) or
-/// GeometryError (result open, misoriented or self-intersecting; names region or place).
+/// When the last round still fails (a front stalls, or the result is open, misoriented, turned
+/// inside out or self-intersecting), the background is the result, with a warning naming the
+/// failure and `remesh.fallback_to_background` = 1, if it has no such defect itself.
+/// Throws InputError (bad params, empty background), else MeshingError or GeometryError (that
+/// failure, naming region or place) when the background cannot stand in either.
 RemeshResult remesh(const core::SurfaceNetwork& background, const RemeshParams& params,
                     core::StageContext& ctx);
 
