@@ -478,13 +478,14 @@ bool mesh_round(int round, Rounds& r, RoundResult& result) {
 }
 
 // The last resort when the last round still fails (`why`): the background itself, which is
-// closed and oriented (check_background), when it also has no part turned inside out and no
-// crossing faces; else nullopt (the failure stands). A warning names the failure, and
-// `remesh.fallback_to_background` counts it: the result is valid but keeps the background's
+// closed and oriented (check_background), when it also has no part turned inside out, no
+// crossing faces and no flat wedge; else nullopt (the failure stands). A warning names the failure,
+// and `remesh.fallback_to_background` counts it: the result is valid but keeps the background's
 // triangles (and their quality) everywhere.
 std::optional<RemeshResult> background_result(const core::SurfaceNetwork& bg, const SizeField& size,
                                               const std::string& why, core::StageContext& ctx) {
-    if (!core::inverted_parts(bg).empty() || !core::self_intersections(bg, 1).empty())
+    if (!core::inverted_parts(bg).empty() || !core::self_intersections(bg, 1).empty() ||
+        !thin_region_wedges(bg, kUnmeshableWedgeDeg).empty())
         return std::nullopt;
     ctx.warn(why +
              "; the repaired surface is used as it is (not remeshed) so that the run "

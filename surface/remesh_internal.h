@@ -205,6 +205,11 @@ PatchMesh coarsen_patch(const BackgroundPatch& patch, PatchMesh mesh, std::size_
 // --- checks (remesh_checks.cpp) ------------------------------------------------------------
 
 /// Outcome of the region checks of a round.
+/// A region wedge (the angle inside a region between its two faces at a junction edge) under
+/// this is a defect of a remesh result: no tet of the region on that edge can be better, and at
+/// zero none is valid (degrees).
+constexpr double kUnmeshableWedgeDeg = 1.0;
+
 struct RegionChecks {
     bool again = false;    ///< a region is not a closed 2-manifold, or a part of it turned
                            ///< inside out: mesh again finer there
@@ -212,8 +217,8 @@ struct RegionChecks {
 };
 
 /// Every region of `out` must be a closed, oriented 2-manifold with no part turned inside out
-/// (else shrink sites or background triangles and again, or in the last round GeometryError
-/// naming the place) and keep its enclosed volume within
+/// and no wedge under kUnmeshableWedgeDeg (else shrink sites or background triangles and again, or
+/// in the last round GeometryError naming the place) and keep its enclosed volume within
 /// remesh.max_volume_change_percent (else its patches are refined, or in the last round a
 /// warning). Counters `remesh.volume_change_percent.region_*` go to ctx.
 RegionChecks check_regions(const core::SurfaceNetwork& bg, const core::SurfaceNetwork& out,

@@ -91,7 +91,11 @@ double smallest_edge_wedge(const core::SurfaceNetwork& s, std::int32_t a, std::i
                 if (j != i) other = faces[j];
             }
             if (uses != 2 || seen_before) continue;  // each region once
-            smallest = std::min(smallest, region_wedge_deg(s, r, a, b, faces[i], other));
+            // The other regions at the edge share 360 - w, so min(w, 360 - w) leaves the
+            // smallest wedge as it is; where two faces lie on each other (a region closed on
+            // itself, torture seed 67) w comes out as 0 or 360 by rounding, and this takes 0.
+            const double w = region_wedge_deg(s, r, a, b, faces[i], other);
+            smallest = std::min(smallest, std::min(w, 360.0 - w));
         }
     return smallest;
 }
@@ -904,7 +908,11 @@ std::vector<ThinWedge> thin_region_wedges(const core::SurfaceNetwork& surface, d
                                               et.edge_faces.begin() + std::ptrdiff_t(b + n));
         const auto [v0, v1] = et.vertices[e];
         const double w = smallest_edge_wedge(surface, v0, v1, faces);
-        if (w < below_deg) thin.push_back({0.5 * (surface.point(v0) + surface.point(v1)), w});
+        if (w < below_deg) {
+            std::vector<std::int32_t> sorted = faces;
+            std::sort(sorted.begin(), sorted.end());
+            thin.push_back({0.5 * (surface.point(v0) + surface.point(v1)), w, std::move(sorted)});
+        }
     }
     return thin;
 }

@@ -62,8 +62,9 @@ struct SmoothingReport {
 /// between its two faces there, is small: every tetrahedron of the region on that edge has a
 /// dihedral angle no larger.
 struct ThinWedge {
-    Eigen::Vector3d midpoint;  ///< of the edge
-    double wedge_deg = 0.0;    ///< the smallest region wedge there
+    Eigen::Vector3d midpoint;         ///< of the edge
+    double wedge_deg = 0.0;           ///< the smallest region wedge there
+    std::vector<std::int32_t> faces;  ///< the faces at the edge, increasing
 };
 
 /// Junction edges of `surface` with a region wedge under `below_deg`, in edge order.

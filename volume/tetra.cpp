@@ -34,30 +34,28 @@ namespace detail {
 
 // ---- the level loop (§3, §3.1) ------------------------------------------------------------
 
-RegionResult RegionMesher::run() {
+RegionResult RegionMesher::run(ClosingOrder order, bool last_attempt) {
     const std::int32_t levels = mesh_levels();
     // Closing phase for the cavities the layered front could not fill.
     const std::int64_t tets_before_closing = alive_tets_;
     if (front_.size() > max_front_) {
-        diagnose_open_front();
+        if (last_attempt) diagnose_open_front();
         fail(
             "the front degenerated (more than 4 times the triangles of the region's boundary; "
             "a layer thinner than the elements?)");
     }
-    // Relaxed filling first, then one completion round (volume/tetra_region.cpp) for the
-    // cavities it leaves, which removes no tets where it fails. Only then rounds that remove
-    // rings of tets and re-advance: in a layer thinner than h they put new points into ever
-    // smaller gaps (torture seed 8: 128 front triangles after the levels, 3,370 after eight
-    // rounds, which the cones could not fill; the cones alone closed the 128). The full
-    // completion path takes what they leave.
+    // Relaxed filling; with ClosingOrder::cones_first one completion round (which removes
+    // no tets where it fails); the rounds that remove rings of tets and re-advance; the
+    // completion path (volume/tetra_region.cpp) for what they leave.
     std::int64_t closing_rounds = close_cavities(0, 0);
-    std::int64_t cones = front_.size() > 0 ? complete_cavities(1) : 0;
+    std::int64_t cones = 0;
+    if (order == ClosingOrder::cones_first && front_.size() > 0) cones += complete_cavities(1);
     if (front_.size() > 0) {
         closing_rounds += close_cavities(1, params_.max_closing_rounds);
         if (front_.size() > 0) cones += complete_cavities(kCompletionRounds);
     }
     if (front_.size() > 0) {
-        diagnose_open_front();
+        if (last_attempt) diagnose_open_front();
         fail("the front cannot be closed");
     }
     RegionResult res = result();
@@ -911,9 +909,21 @@ core::TetMesh tetra(const core::SurfaceNetwork& surface, const TetraParams& para
     const detail::RegionSink sink(ctx, ctx_mutex);
     std::size_t done = 0;
     tbb::parallel_for(std::size_t(0), labels.size(), [&](std::size_t r) {
+        // Two attempts at most: the rings of the closing rounds first, which give the better
+        // tets; where the region's front cannot be closed so, the cones first. In a layer
+        // thinner than h the rings put new points into ever smaller gaps (torture seed 8:
+        // 128 front triangles after the levels, 3,370 after eight rounds, which the cones
+        // could not fill; one round of cones alone closes the 128).
         try {
-            detail::RegionMesher mesher(surface, labels[r], params, sink);
-            results[r] = mesher.run();
+            try {
+                detail::RegionMesher mesher(surface, labels[r], params, sink);
+                results[r] = mesher.run(detail::ClosingOrder::rings_first, false);
+            } catch (const core::MeshingError& first) {
+                sink.info(std::string(first.what()) + "; meshing the region again, cones first");
+                detail::RegionMesher mesher(surface, labels[r], params, sink);
+                results[r] = mesher.run(detail::ClosingOrder::cones_first, true);
+                results[r].second_attempt = true;
+            }
         } catch (...) {
             errors[r] = std::current_exception();
         }

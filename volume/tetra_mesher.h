@@ -69,10 +69,16 @@ struct RegionResult {
     std::int64_t remeshes = 0;
     std::int64_t closing_rounds = 0;
     std::int64_t closing_tets = 0;
-    std::int64_t cones = 0;  // cavities filled by the completion path
+    std::int64_t cones = 0;       // cavities filled by the completion path
+    bool second_attempt = false;  // meshed with ClosingOrder::cones_first after a failure
     std::int32_t levels = 0;
     std::int64_t stat[kStatCount] = {};
 };
+
+/// The order of the closing phase after the levels: the relaxed fill, then the closing rounds
+/// that remove rings of tets and re-advance, then the completion path (rings_first); or one
+/// completion round right after the relaxed fill (cones_first), then the same.
+enum class ClosingOrder { rings_first, cones_first };
 
 /// What a region's mesher uses of the stage context from its worker thread: log lines and
 /// diagnostics go through one lock, the cancellation check needs none.
@@ -82,6 +88,10 @@ public:
     void debug(const std::string& message) const {
         std::lock_guard<std::mutex> lock(mutex_);
         ctx_.debug(message);
+    }
+    void info(const std::string& message) const {
+        std::lock_guard<std::mutex> lock(mutex_);
+        ctx_.info(message);
     }
     void check_cancelled() const { ctx_.check_cancelled(); }
     bool wants_diagnostics() const { return ctx_.wants_diagnostics(); }
@@ -109,8 +119,9 @@ public:
         init_front(surface);
     }
 
-    /// Meshes the region; throws MeshingError when its front cannot be closed.
-    RegionResult run();
+    /// Meshes the region (once per mesher); throws MeshingError when its front cannot be
+    /// closed, after handing the open front to the diagnostics sink on the last attempt.
+    RegionResult run(ClosingOrder order, bool last_attempt);
 
 private:
     // ---- §3.1.1 required data ------------------------------------------------------------

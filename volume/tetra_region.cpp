@@ -309,6 +309,24 @@ bool RegionMesher::grow_star(const std::vector<std::int32_t>& cavity, const V3& 
 /// after growing it to be star-shaped from that point; false (nothing changed but unused
 /// nodes) when no candidate point works.
 bool RegionMesher::fill_star(const std::vector<std::int32_t>& cavity) {
+    // Four faces on four nodes bound one tet; a flat one has no kernel point, and a cone
+    // could only be worse. (Where the input surface pinches a region to nothing, torture
+    // seed 67, the tet is too flat even for the relaxed volume test: remesh must not make
+    // such a surface, see kUnmeshableWedgeDeg.)
+    if (cavity.size() == 4) {
+        std::vector<std::int32_t> nodes;
+        for (std::int32_t f : cavity)
+            nodes.insert(nodes.end(), front_.face(f).v.begin(), front_.face(f).v.end());
+        std::sort(nodes.begin(), nodes.end());
+        nodes.erase(std::unique(nodes.begin(), nodes.end()), nodes.end());
+        const Tri& t = front_.face(cavity.front()).v;
+        for (std::int32_t q : nodes) {
+            if (nodes.size() != 4 || q == t[0] || q == t[1] || q == t[2]) continue;
+            const Base bk = make_base(cavity.front(), false);
+            Search s = relaxed_search(bk);
+            return try_existing(bk, s, q);
+        }
+    }
     std::vector<CavityPlane> planes, fixed;
     planes.reserve(cavity.size());
     V3 centre = V3::Zero();
@@ -452,6 +470,7 @@ core::TetMesh merge_regions(const core::SurfaceNetwork& surface,
     mesh.region_out = surface.region_out;
     mesh.surface_vertices = static_cast<std::int32_t>(nv);
     std::int64_t remeshes = 0, closing_rounds = 0, closing_tets = 0, cones = 0, levels = 0;
+    std::int64_t second_attempts = 0;
     std::int64_t stat[kStatCount] = {};
     for (const RegionResult& res : results) {
         const std::int32_t nl = static_cast<std::int32_t>(res.level.size());
@@ -474,6 +493,7 @@ core::TetMesh merge_regions(const core::SurfaceNetwork& surface,
         closing_rounds += res.closing_rounds;
         closing_tets += res.closing_tets;
         cones += res.cones;
+        second_attempts += res.second_attempt;
         levels = std::max<std::int64_t>(levels, res.levels);
         for (int i = 0; i < kStatCount; ++i) stat[i] += res.stat[i];
     }
@@ -486,6 +506,7 @@ core::TetMesh merge_regions(const core::SurfaceNetwork& surface,
     ctx.count("tetra.closing_rounds", static_cast<double>(closing_rounds));
     ctx.count("tetra.closing_tets", static_cast<double>(closing_tets));
     ctx.count("tetra.completion_cones", static_cast<double>(cones));
+    ctx.count("tetra.regions_meshed_twice", static_cast<double>(second_attempts));
     ctx.count("tetra.max_levels", static_cast<double>(levels));
     ctx.info("tetra: " + std::to_string(mesh.tet_count()) + " tets, " +
              std::to_string(mesh.node_count()) + " nodes, " + std::to_string(results.size()) +
