@@ -83,12 +83,16 @@ struct JsonValue {
     std::vector<JsonValue> items;
     std::vector<std::pair<std::string, JsonValue>> members;
 
-    const JsonValue* member(const std::string& key) const {
-        for (const auto& [name, value] : members)
-            if (name == key) return &value;
-        return nullptr;
-    }
+    const JsonValue* member(const std::string& key) const;
 };
+
+// Defined after the struct: clang 14 (the sanitizer build) refuses std::pair<.., JsonValue>
+// inside JsonValue's own definition.
+const JsonValue* JsonValue::member(const std::string& key) const {
+    for (const auto& [name, value] : members)
+        if (name == key) return &value;
+    return nullptr;
+}
 
 class JsonReader {
 public:

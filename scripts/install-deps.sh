@@ -11,6 +11,7 @@ packages=(
   tetgen                                         # peer mesher for the benchmarks
   gmsh                                           # reads our .msh/.mesh exports back in the tests
   clang-format                                   # scripts/check-format.sh (CI step)
+  clang libclang-rt-14-dev                       # sanitizer build and libFuzzer targets (CI)
   snakemake                                      # examples/cohort/Snakefile (local or SLURM)
 )
 
