@@ -445,7 +445,15 @@ vtkSmartPointer<Reader> run_reader(const std::string& path, const char* format) 
         reader->SetParserErrorObserver(capture);
     }
     reader->SetFileName(path.c_str());
-    reader->Update();
+    try {
+        reader->Update();
+    } catch (const std::exception& e) {
+        // VTK's XML readers size arrays by the file's compression header without checking
+        // it: a damaged one throws std::length_error or std::bad_alloc out of Update()
+        // (found by fuzz_mesh, issue 21). That is bad input, not a frontmesh failure.
+        FM_THROW(InputError, quoted(path) + ": cannot read as " + format +
+                                 ": the VTK reader failed (" + e.what() + ")");
+    }
     if (capture->has_error() || reader->GetErrorCode() != 0) {
         std::string why = capture->message();
         if (why.empty()) why = "the VTK reader failed";

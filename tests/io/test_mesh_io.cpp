@@ -762,6 +762,29 @@ TEST_CASE("read_tet_mesh rejects files that are not tet meshes, naming them", "[
     CHECK_THROWS_WITH(frontmesh::io::read_tet_mesh(dir + "/x.msh"), Catch::Contains("x.msh"));
 }
 
+// Issue 21, found by tests/fuzz/fuzz_mesh: a damaged compression header in a VTU's appended
+// data made VTK's reader throw std::length_error (or bad_alloc), reported as an internal error.
+TEST_CASE("read_tet_mesh and read_surface refuse a damaged compressed VTU", "[io]") {
+    const std::string dir = frontmesh::fixtures::temp_dir("tet_vtu_damaged");
+    const std::string path = dir + "/mesh.vtu";
+    frontmesh::io::write_tet_mesh_vtu(frontmesh::fixtures::cube_tet_mesh(2, 1.0, false), path, {});
+    std::string text;
+    {
+        std::ifstream in(path, std::ios::binary);
+        text.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+    }
+    // Appended data starts after "_"; its first block header (UInt64 words: blocks, block
+    // size, last block size, compressed sizes) announces 2^62 blocks.
+    const std::size_t start = text.find("<AppendedData encoding=\"raw\">");
+    REQUIRE(start != std::string::npos);
+    const std::size_t data = text.find('_', start) + 1;
+    text.replace(data, 8, std::string("\0\0\0\0\0\0\0\x40", 8));
+    write_text(path, text);
+    CHECK_THROWS_WITH(frontmesh::io::read_tet_mesh(path), Catch::Contains("mesh.vtu"));
+    CHECK_THROWS_AS(frontmesh::io::read_tet_mesh(path), InputError);
+    CHECK_THROWS_AS(frontmesh::io::read_surface(path), InputError);
+}
+
 TEST_CASE("write_diagnostic_vtu writes lines, triangles and tets with kind and what", "[io]") {
     core::Diagnostic d;
     d.name = "stall";
