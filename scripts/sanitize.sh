@@ -10,8 +10,8 @@ cd "$(dirname "$0")/.."
 cmake -S . -B build-san -DCMAKE_BUILD_TYPE=Release -DFRONTMESH_BUILD_TESTS=ON \
   -DFRONTMESH_FUZZ=ON -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++
 cmake --build build-san -j"$(nproc)"
-# detect_leaks=0: ITK's and VTK's singletons are left to the process exit on purpose.
-export ASAN_OPTIONS=detect_leaks=0:abort_on_error=1:detect_stack_use_after_return=0
+export ASAN_OPTIONS=abort_on_error=1
+export LSAN_OPTIONS="suppressions=$PWD/tests/fuzz/lsan.supp:print_suppressions=0"
 export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
 (cd build-san && ctest --output-on-failure -j"$(nproc)" -LE asan-slow "$@")
 bash scripts/fuzz.sh build-san "${FRONTMESH_FUZZ_SECONDS:-25}"
