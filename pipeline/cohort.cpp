@@ -75,6 +75,8 @@ bool is_safe_id(const std::string& id) {
 
 // ---- a small JSON reader, for the subjects' summary.json ------------------------------
 
+struct JsonMember;
+
 struct JsonValue {
     enum class Kind { Null, Boolean, Number, String, Array, Object };
     Kind kind = Kind::Null;
@@ -82,14 +84,23 @@ struct JsonValue {
     double number = 0.0;
     std::string text;
     std::vector<JsonValue> items;
-    std::vector<std::pair<std::string, JsonValue>> members;
+    std::vector<JsonMember> members;
 
-    const JsonValue* member(const std::string& key) const {
-        for (const auto& [name, value] : members)
-            if (name == key) return &value;
-        return nullptr;
-    }
+    const JsonValue* member(const std::string& key) const;
 };
+
+// A named struct, not std::pair<std::string, JsonValue>, defined after JsonValue: clang 14
+// (the sanitizer build) refuses that pair inside JsonValue's own definition.
+struct JsonMember {
+    std::string name;
+    JsonValue value;
+};
+
+const JsonValue* JsonValue::member(const std::string& key) const {
+    for (const auto& [name, value] : members)
+        if (name == key) return &value;
+    return nullptr;
+}
 
 class JsonReader {
 public:
@@ -140,7 +151,7 @@ private:
                 skip_space();
                 std::string key = string();
                 expect(':');
-                v.members.emplace_back(std::move(key), value(depth + 1));
+                v.members.push_back(JsonMember{std::move(key), value(depth + 1)});
             } while (take(','));
             expect('}');
         } else if (c == '[') {

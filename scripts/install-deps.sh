@@ -12,6 +12,7 @@ packages=(
   gmsh                                           # reads our .msh/.mesh exports back in the tests
   calculix-ccx                                   # solves our .inp exports in the tests (ccx)
   clang-format                                   # scripts/check-format.sh (CI step)
+  clang libclang-rt-14-dev                       # sanitizer build and libFuzzer targets (CI)
   snakemake                                      # examples/cohort/Snakefile (local or SLURM)
 )
 

@@ -305,7 +305,8 @@ std::size_t flip_shared_inner_edges(core::SurfaceNetwork& out,
         std::vector<std::uint8_t> touched(out.face_count(), 0);
         std::size_t made = 0;
         for (std::size_t e = 0; e < et.edge_count(); ++e) {
-            const auto [x, y] = et.vertices[e];
+            // Not a structured binding: clang 14 (the sanitizer build) cannot capture one.
+            const auto x = et.vertices[e][0], y = et.vertices[e][1];
             if (std::size_t(x) >= curve_points || std::size_t(y) >= curve_points) continue;
             const auto b = et.face_offsets[e], n = et.face_offsets[e + 1] - b;
             if (n <= 2) continue;

@@ -389,6 +389,60 @@ TEST_CASE("read_surface reads PLY written by VTK", "[io]") {
     CHECK(core::region_labels(read) == std::vector<core::Label>{1});
 }
 
+// Issue 21, found by tests/fuzz/fuzz_surface: VTK's PLY reader read past its word array on a
+// short element line (SIGSEGV) and allocated any list size a file announced.
+TEST_CASE("read_surface refuses malformed PLY before VTK reads it", "[io]") {
+    const std::string dir = fixtures::temp_dir("io_read_bad_ply");
+    const std::string header =
+        "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n"
+        "property float z\nelement face 4\nproperty list uchar int vertex_indices\n"
+        "end_header\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n";
+    const std::string faces = "3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n";
+    SECTION("the well-formed file reads") {
+        write_text(dir + "/ok.ply", header + faces);
+        CHECK(io::read_surface(dir + "/ok.ply").face_count() == 4);
+        write_text(dir + "/crlf.ply",
+                   "ply\r\nformat ascii 1.0\r\nelement vertex 3\r\n"
+                   "property float x\r\nproperty float y\r\n"
+                   "property float z\r\nelement face 1\r\n"
+                   "property list uchar int vertex_indices\r\n"
+                   "end_header\r\n0 0 0\r\n1 0 0\r\n0 1 0\r\n3 0 1 2\r\n");
+        CHECK(io::read_surface(dir + "/crlf.ply").face_count() == 1);
+    }
+    SECTION("a face line short of its list") {
+        write_text(dir + "/short.ply", header + "3 0 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n");
+        const std::string msg = input_error_message([&] { io::read_surface(dir + "/short.ply"); });
+        CHECK_THAT(msg, Catch::Contains("short.ply"));
+        CHECK_THAT(msg, Catch::Contains("line 14"));
+        CHECK_THAT(msg, Catch::Contains("face 0"));
+    }
+    SECTION("an empty vertex line, a missing line, an element without a count") {
+        write_text(dir + "/empty.ply", header.substr(0, header.size() - 6) + "\n\n" + faces);
+        CHECK_THAT(input_error_message([&] { io::read_surface(dir + "/empty.ply"); }),
+                   Catch::Contains("vertex 3"));
+        write_text(dir + "/cut.ply", header + "3 0 2 1\n");
+        CHECK_THAT(input_error_message([&] { io::read_surface(dir + "/cut.ply"); }),
+                   Catch::Contains("end of file"));
+        write_text(dir + "/nocount.ply", "ply\nformat ascii 1.0\nelement vertex\nend_header\n");
+        CHECK_THAT(input_error_message([&] { io::read_surface(dir + "/nocount.ply"); }),
+                   Catch::Contains("element NAME COUNT"));
+        write_text(dir + "/blank.ply", "ply\n\nformat ascii 1.0\nend_header\n");
+        CHECK_THAT(input_error_message([&] { io::read_surface(dir + "/blank.ply"); }),
+                   Catch::Contains("empty header line"));
+    }
+    SECTION("a binary list size beyond the file") {
+        std::string binary =
+            "ply\nformat binary_little_endian 1.0\nelement vertex 1\nproperty float x\n"
+            "property float y\nproperty float z\nelement face 1\n"
+            "property list int int vertex_indices\nend_header\n";
+        binary += std::string(12, '\0');
+        binary += std::string("\xff\xff\xff\x7f", 4);  // 2^31 - 1 indices
+        write_text(dir + "/huge.ply", binary);
+        CHECK_THAT(input_error_message([&] { io::read_surface(dir + "/huge.ply"); }),
+                   Catch::Contains("face 0"));
+    }
+}
+
 TEST_CASE("read_surface reads VTP with any integer region arrays", "[io]") {
     const std::string dir = fixtures::temp_dir("io_read_vtp");
     const std::string path = dir + "/net.vtp";
@@ -706,6 +760,29 @@ TEST_CASE("read_tet_mesh rejects files that are not tet meshes, naming them", "[
                       Catch::Contains("tri.vtu") && Catch::Contains("only tetrahedra"));
     CHECK_THROWS_AS(frontmesh::io::read_tet_mesh(dir + "/none.vtu"), InputError);
     CHECK_THROWS_WITH(frontmesh::io::read_tet_mesh(dir + "/x.msh"), Catch::Contains("x.msh"));
+}
+
+// Issue 21, found by tests/fuzz/fuzz_mesh: a damaged compression header in a VTU's appended
+// data made VTK's reader throw std::length_error (or bad_alloc), reported as an internal error.
+TEST_CASE("read_tet_mesh and read_surface refuse a damaged compressed VTU", "[io]") {
+    const std::string dir = frontmesh::fixtures::temp_dir("tet_vtu_damaged");
+    const std::string path = dir + "/mesh.vtu";
+    frontmesh::io::write_tet_mesh_vtu(frontmesh::fixtures::cube_tet_mesh(2, 1.0, false), path, {});
+    std::string text;
+    {
+        std::ifstream in(path, std::ios::binary);
+        text.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+    }
+    // Appended data starts after "_"; its first block header (UInt64 words: blocks, block
+    // size, last block size, compressed sizes) announces 2^62 blocks.
+    const std::size_t start = text.find("<AppendedData encoding=\"raw\">");
+    REQUIRE(start != std::string::npos);
+    const std::size_t data = text.find('_', start) + 1;
+    text.replace(data, 8, std::string("\0\0\0\0\0\0\0\x40", 8));
+    write_text(path, text);
+    CHECK_THROWS_WITH(frontmesh::io::read_tet_mesh(path), Catch::Contains("mesh.vtu"));
+    CHECK_THROWS_AS(frontmesh::io::read_tet_mesh(path), InputError);
+    CHECK_THROWS_AS(frontmesh::io::read_surface(path), InputError);
 }
 
 TEST_CASE("write_diagnostic_vtu writes lines, triangles and tets with kind and what", "[io]") {
