@@ -762,6 +762,38 @@ void check_ply(const std::string& path) {
     PlyCheck(path, std::move(text)).run();
 }
 
+// A binary STL (one that VTK reads as binary: a byte outside printable text and white space
+// in its first 256, or no "solid" at the start) must hold the triangles its header counts:
+// VTK allocates that count first (a fuzzed header asked for 15.7 GB).
+void check_stl(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) FM_THROW(InputError, quoted(path) + ": cannot open");
+    in.seekg(0, std::ios::end);
+    const auto size = static_cast<std::uint64_t>(in.tellg());
+    in.seekg(0);
+    std::string head(static_cast<std::size_t>(std::min<std::uint64_t>(size, 256)), '\0');
+    in.read(head.data(), static_cast<std::streamsize>(head.size()));
+    const bool text =
+        head.rfind("solid", 0) == 0 && std::all_of(head.begin(), head.end(), [](char c) {
+            const auto u = static_cast<unsigned char>(c);
+            return std::isprint(u) || std::isspace(u);
+        });
+    if (text) return;
+    if (size < 84)
+        FM_THROW(InputError, quoted(path) +
+                                 ": a binary STL needs at least 84 bytes, the file has " +
+                                 std::to_string(size));
+    const auto count = std::uint64_t(static_cast<unsigned char>(head[80])) |
+                       std::uint64_t(static_cast<unsigned char>(head[81])) << 8 |
+                       std::uint64_t(static_cast<unsigned char>(head[82])) << 16 |
+                       std::uint64_t(static_cast<unsigned char>(head[83])) << 24;
+    if (84 + 50 * count > size)
+        FM_THROW(InputError, quoted(path) + ": the binary STL header counts " +
+                                 std::to_string(count) + " triangles (" +
+                                 std::to_string(84 + 50 * count) + " bytes), the file has " +
+                                 std::to_string(size) + " bytes");
+}
+
 std::string lower(std::string s) {
     std::transform(s.begin(), s.end(), s.begin(),
                    [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
@@ -867,6 +899,7 @@ core::SurfaceNetwork read_surface(const std::string& path, FieldStrings* fields)
         surface = surface_from_polydata(reader->GetOutput(), path);
         copy_field_strings(reader->GetOutput(), fields);
     } else if (ext == ".stl") {
+        check_stl(path);
         auto reader = run_reader<vtkSTLReader>(path, "STL");
         surface = surface_from_polydata(reader->GetOutput(), path);
     } else if (ext == ".ply") {

@@ -391,6 +391,20 @@ TEST_CASE("read_surface reads PLY written by VTK", "[io]") {
 
 // Issue 21, found by tests/fuzz/fuzz_surface: VTK's PLY reader read past its word array on a
 // short element line (SIGSEGV) and allocated any list size a file announced.
+TEST_CASE("read_surface refuses a binary STL shorter than its triangle count", "[io]") {
+    // VTK allocates the count of the header first (a fuzzed file asked for 15.7 GB).
+    const std::string dir = fixtures::temp_dir("io_read_short_stl");
+    std::string stl(80, ' ');
+    stl += std::string("\x00\x00\x00\x10", 4);  // 2^28 triangles
+    stl += std::string(100, '\0');
+    write_text(dir + "/short.stl", stl);
+    const std::string msg = input_error_message([&] { io::read_surface(dir + "/short.stl"); });
+    CHECK_THAT(msg, Catch::Contains("short.stl") && Catch::Contains("268435456 triangles"));
+    write_text(dir + "/tiny.stl", "abc");
+    CHECK_THAT(input_error_message([&] { io::read_surface(dir + "/tiny.stl"); }),
+               Catch::Contains("84 bytes"));
+}
+
 TEST_CASE("read_surface refuses malformed PLY before VTK reads it", "[io]") {
     const std::string dir = fixtures::temp_dir("io_read_bad_ply");
     const std::string header =
