@@ -13,6 +13,7 @@ packages=(
   calculix-ccx                                   # solves our .inp exports in the tests (ccx)
   clang-format                                   # scripts/check-format.sh (CI step)
   snakemake                                      # examples/cohort/Snakefile (local or SLURM)
+  python3-jsonschema                             # summary.json against docs/summary.schema.json
 )
 
 missing=()
