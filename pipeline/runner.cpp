@@ -15,6 +15,7 @@
 #include <map>
 #include <mutex>
 #include <optional>
+#include <regex>
 #include <sstream>
 #include <string_view>
 #include <variant>
@@ -399,6 +400,7 @@ private:
     std::string results_key() const;
     void write_exports(const fs::path& result, const fs::path& last_checkpoint,
                        const std::vector<fs::path>& stale, bool ran_any);
+    ReportContext report_context() const;
     void write_pvd();
     void write_summary(const std::string& status, const std::string& error);
 
@@ -877,11 +879,54 @@ void Run::write_exports(const fs::path& result, const fs::path& last_checkpoint,
         if (!tetra_histograms_ && fs::exists(tetra_checkpoint))
             tetra_histograms_ = quality_histograms(io::read_tet_mesh(tetra_checkpoint.string()));
         write_quality_report(out_.dir.string(), mesh,
-                             tetra_histograms_ ? &*tetra_histograms_ : nullptr, recipe_.path,
+                             tetra_histograms_ ? &*tetra_histograms_ : nullptr, report_context(),
                              figures_.size() == mesh.tet_count() && ran_any ? &figures_ : nullptr);
         committed(out_.dir / "report.html");
         info("wrote " + (out_.dir / "report.html").string());
     }
+}
+
+// What report.html tells besides the mesh: names, the voxels' volume per label (from
+// checkpoints/input.json), and every stage's timing (from its part of summary.json) and
+// parameters.
+ReportContext Run::report_context() const {
+    ReportContext context;
+    context.title = recipe_.path;
+    context.frame = frame_;
+    context.region_names = names_.names();
+    const fs::path input_json = out_.dir / "checkpoints" / "input.json";
+    if (!surface_input_ && fs::exists(input_json)) {
+        const std::string text = read_text(input_json);
+        std::smatch m;
+        double voxel = 0.0;
+        if (std::regex_search(text, m, std::regex("\"voxel_volume_mm3\": ([0-9.eE+-]+)")))
+            voxel = std::stod(m[1].str());
+        if (std::regex_search(text, m, std::regex("\"label_voxels\": \\{([^}]*)\\}"))) {
+            const std::string list = m[1].str();
+            const std::regex entry("\"([0-9]+)\": ([0-9]+)");
+            for (auto it = std::sregex_iterator(list.begin(), list.end(), entry);
+                 it != std::sregex_iterator(); ++it)  // one entry per label
+                context.voxel_volume_mm3[static_cast<core::Label>(std::stol((*it)[1].str()))] =
+                    voxel * std::stod((*it)[2].str());
+        }
+    }
+    for (int i = entry_; i <= last_; ++i) {
+        const fs::path part_path = out_.with_ext(stages_[i], ".json");
+        if (!fs::exists(part_path)) continue;
+        const std::string part = read_text(part_path);
+        ReportContext::Stage stage;
+        stage.name = stages_[i].name;
+        stage.reused = part.find("\"reused\": true") != std::string::npos;
+        std::smatch m;
+        if (std::regex_search(part, m, std::regex("\"wall_s\": ([0-9.eE+-]+)")))
+            stage.wall_s = std::stod(m[1].str());
+        if (std::regex_search(part, m, std::regex("\"peak_rss_mb\": ([0-9.eE+-]+)")))
+            stage.peak_rss_mb = std::stod(m[1].str());
+        for (const auto& [key, value] : recipe_.values)
+            if (key.rfind(stage.name + ".", 0) == 0) stage.parameters.emplace_back(key, value);
+        context.stages.push_back(std::move(stage));
+    }
+    return context;
 }
 
 void Run::write_pvd() {

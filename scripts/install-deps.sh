@@ -14,6 +14,7 @@ packages=(
   clang-format                                   # scripts/check-format.sh (CI step)
   snakemake                                      # examples/cohort/Snakefile (local or SLURM)
   python3-jsonschema                             # summary.json against docs/summary.schema.json
+  chromium                                       # scripts/report-screenshot.sh (report.html)
 )
 
 missing=()
