@@ -5,11 +5,13 @@
 #include <filesystem>
 #include <iostream>
 #include <memory>
+#include <sstream>
 #include <string>
 #include <vector>
 
 #include <tbb/global_control.h>
 
+#include "io/atomic_file.h"
 #include "io/export.h"
 #include "io/image_reader.h"
 #include "io/label_table.h"
@@ -17,6 +19,7 @@
 #include "pipeline/cohort.h"
 #include "pipeline/core/error.h"
 #include "pipeline/core/input_file.h"
+#include "pipeline/output_dir.h"
 #include "pipeline/recipe.h"
 #include "pipeline/runner.h"
 #include "pipeline/version.h"
@@ -27,6 +30,8 @@ namespace {
 constexpr const char* kUsage = R"(frontmesh - isotropic tetrahedral meshes from segmented 3-D images
 
 Usage:
+  frontmesh mesh IMAGE [-o DIR] [--labels LIST|TABLE] [--size MM] [--format LIST]
+                            [--set key.path=value ...] [--force] [--threads N] [--quiet]
   frontmesh run RECIPE.yaml [--set key.path=value ...] [--from STAGE] [--until STAGE]
                             [--force] [--threads N] [--quiet]
   frontmesh validate RECIPE.yaml [--set key.path=value ...]
@@ -38,6 +43,11 @@ Usage:
   frontmesh --help | --version
 
 Commands:
+  mesh      the common case without writing a recipe: mesh IMAGE with the defaults and
+            the options given, into DIR (default: IMAGE's name without extension +
+            "-mesh", in the current folder); writes the recipe it used, every key with
+            its value, as DIR/recipe.yaml (`frontmesh run DIR/recipe.yaml` runs it
+            again), then runs it exactly as `run` does
   run       validate the recipe, then run its stages; each stage writes
             OUTPUT/checkpoints/NN-STAGE.vtu; OUTPUT/run.pvd opens the whole run in
             ParaView; OUTPUT/summary.json has times, memory and quality figures
@@ -61,6 +71,13 @@ Options:
   --force               run every stage even if its checkpoint is up to date
   --threads N           worker threads (default: all cores); results do not depend on it
   --quiet               only warnings and errors on the terminal (the log has all)
+  -o, --output DIR      mesh: the output folder (output.dir)
+  --labels LIST|TABLE   mesh: labels to mesh (input.labels), "1,4,7" or "all"; or a label
+                        table file (input.label_names) for region names
+  --size MM             mesh: target edge length in mm (remesh.edge_length); default: about
+                        1.3 voxels
+  --format LIST         mesh: files of the mesh besides mesh.vtu, e.g. "msh,inp"
+                        (output.formats: vtu msh msh22 mesh inp feb)
   --recipe FILE         cohort: the recipe every subject runs
   -j, --jobs N          cohort: subjects running at the same time (default 1)
   --json                check: print the report as JSON instead of text
@@ -82,7 +99,8 @@ subject failed).
 
 struct Arguments {
     std::string command, recipe, from, until, cohort_recipe;
-    std::string output, surface, format, labels;  // check / convert
+    std::string output, surface, format, labels;  // check / convert / mesh
+    std::string output_dir, size;                 // mesh
     bool json = false;
     std::vector<std::string> overrides;
     bool force = false, quiet = false;
@@ -135,6 +153,10 @@ Arguments parse(int argc, char** argv) {
             a.format = value(i);
         else if (arg == "--labels")
             a.labels = value(i);
+        else if (arg == "-o" || arg == "--output")
+            a.output_dir = value(i);
+        else if (arg == "--size")
+            a.size = value(i);
         else if (arg.size() > 2 && arg.rfind("-j", 0) == 0)
             a.jobs = whole_number("-j", arg.substr(2));
         else if (!arg.empty() && arg[0] == '-') {
@@ -150,6 +172,113 @@ Arguments parse(int argc, char** argv) {
         }
     }
     return a;
+}
+
+// Runs the recipe and prints where its results are.
+int run_and_report(const Recipe& recipe, const RunOptions& options) {
+    const std::string result = run_recipe(recipe, options);
+    const auto dir = std::filesystem::path(recipe.output.dir);
+    std::cout << "\nResult:      " << result << "\nCheckpoints: " << (dir / "checkpoints").string()
+              << "\nSummary:     " << (dir / "summary.json").string()
+              << "\nLog:         " << (dir / "frontmesh.log").string()
+              << "\nOpen the whole run in ParaView:  paraview " << (dir / "run.pvd").string()
+              << "\n  (or File > Open > run.pvd; colour by region_in, eta or min_angle)\n";
+    return 0;
+}
+
+// The labels of `frontmesh mesh --labels`: "all", or whole numbers separated by commas or
+// spaces, as a YAML list; empty when `text` is none of these (then it names a table).
+std::string label_list_yaml(const std::string& text) {
+    if (text == "all") return "all";
+    std::string list;
+    std::istringstream items(text);
+    for (std::string item; std::getline(items, item, ',');) {
+        std::istringstream words(item);
+        for (std::string word; words >> word;) {
+            if (word.find_first_not_of("0123456789") != std::string::npos) return {};
+            list += (list.empty() ? "" : ", ") + word;
+        }
+    }
+    return list.empty() ? std::string() : "[" + list + "]";
+}
+
+// The recipe of `frontmesh mesh`: the defaults and the options given, as recipe text.
+std::string mesh_recipe_text(const Arguments& args, const std::filesystem::path& dir) {
+    namespace fs = std::filesystem;
+    auto quoted = [](const std::string& text) {  // a YAML single-quoted scalar
+        std::string out = "'";
+        for (char c : text) out += c == '\'' ? std::string("''") : std::string(1, c);
+        return out + "'";
+    };
+    std::string text =
+        "input:\n  image: " + quoted(fs::absolute(args.recipe).lexically_normal().string()) + "\n";
+    if (!args.labels.empty()) {
+        const std::string list = label_list_yaml(args.labels);
+        if (!list.empty())
+            text += "  labels: " + list + "\n";
+        else if (std::filesystem::is_regular_file(args.labels))
+            text +=
+                "  label_names: " + quoted(fs::absolute(args.labels).lexically_normal().string()) +
+                "\n";
+        else
+            FM_THROW(InputError, "--labels " + args.labels +
+                                     ": expected labels such as 1,4,7 (or all), or a label "
+                                     "table file");
+    }
+    text += "output:\n  dir: " + quoted(dir.string()) + "\n";
+    if (!args.format.empty()) {
+        std::string list;
+        std::istringstream items(args.format);
+        for (std::string item; std::getline(items, item, ',');)
+            if (!item.empty()) list += (list.empty() ? "" : ", ") + item;
+        text += "  formats: [" + list + "]\n";
+    }
+    if (!args.size.empty()) text += "remesh:\n  edge_length: " + args.size + "\n";
+    return text;
+}
+
+// frontmesh mesh IMAGE: builds the recipe, writes it (every key) into the output folder,
+// and runs that file as `frontmesh run` would, so the run and the file cannot differ.
+int run_mesh_command(const Arguments& args, RunOptions options) {
+    namespace fs = std::filesystem;
+    if (args.recipe.empty())
+        FM_THROW(InputError,
+                 "mesh: usage: frontmesh mesh IMAGE [-o DIR] [--labels LIST] [--size MM] "
+                 "[--format LIST]");
+    if (args.recipe.find('%') == std::string::npos)  // a slice pattern: the reader checks
+        core::require_input_file(args.recipe, "mesh: image ", true);
+    fs::path dir = args.output_dir;
+    if (dir.empty()) {
+        fs::path stem = fs::path(args.recipe).filename();
+        while (!stem.extension().empty()) stem = stem.stem();  // a.nii.gz: at most 2 passes
+        dir = stem.string() + "-mesh";
+    }
+    dir = fs::absolute(dir).lexically_normal();
+    const fs::path recipe_file = dir / "recipe.yaml";
+    // Checked whole (image, keys, output folder) before anything is written.
+    const Recipe built = parse_recipe(mesh_recipe_text(args, dir), recipe_file, args.overrides);
+    io::check_label_image(built.input.image, {.threshold = built.input.threshold,
+                                              .spacing = built.input.spacing,
+                                              .max_image_gib = built.input.max_image_gib});
+    claim_output_dir(dir.string());
+    io::write_text_atomically(
+        recipe_file.string(),
+        "# Written by frontmesh " + std::string(version()) +
+            " mesh: every key with the value the run used.\n# Run it again with: frontmesh "
+            "run " +
+            recipe_file.string() + "\n" + effective_recipe_yaml(built));
+    const Recipe recipe = load_recipe(recipe_file.string());
+    if (!options.quiet) std::cerr << "recipe: " << recipe_file.string() << '\n';
+    return run_and_report(recipe, options);
+}
+
+RunOptions run_options(const Arguments& args) {
+    RunOptions options;
+    options.from = args.from;
+    options.until = args.until;
+    options.force = args.force;
+    options.quiet = args.quiet;
+    return options;
 }
 
 int run_cohort_command(const Arguments& args) {
@@ -247,20 +376,35 @@ int run_cli(int argc, char** argv) {
             return 0;
         }
         const bool mesh_command = args.command == "check" || args.command == "convert";
-        if (!mesh_command &&
+        const bool mesh_image = args.command == "mesh";
+        if (!mesh_command && !mesh_image &&
             (args.json || !args.surface.empty() || !args.format.empty() || !args.labels.empty()))
             FM_THROW(InputError,
-                     "--json, --surface, --format and --labels are for frontmesh check / convert");
+                     "--json, --surface, --format and --labels are for frontmesh "
+                     "check / convert / mesh");
+        if (!mesh_image && (!args.output_dir.empty() || !args.size.empty()))
+            FM_THROW(InputError, "-o and --size are for frontmesh mesh");
+        if (mesh_image && (args.json || !args.surface.empty() || !args.from.empty() || args.jobs ||
+                           !args.cohort_recipe.empty()))
+            FM_THROW(InputError,
+                     "mesh: takes -o, --labels, --size, --format, --set, --until, "
+                     "--force, --threads and --quiet (see frontmesh --help)");
         if (mesh_command && (!args.overrides.empty() || !args.from.empty() || !args.until.empty() ||
                              args.force || args.jobs || !args.cohort_recipe.empty()))
             FM_THROW(InputError, args.command + ": takes no recipe options (see frontmesh --help)");
         if (args.command == "check") return run_check_command(args);
         if (args.command == "convert") return run_convert_command(args);
         if (args.command == "cohort") return run_cohort_command(args);
+        std::unique_ptr<tbb::global_control> threads;
+        if (args.threads > 0)
+            threads =
+                std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
+                                                      static_cast<std::size_t>(args.threads));
+        if (mesh_image) return run_mesh_command(args, run_options(args));
         if (args.command != "run" && args.command != "validate")
             FM_THROW(InputError, args.command +
-                                     ": unknown command; use run, validate, cohort, check, convert "
-                                     "or keys (see frontmesh --help)");
+                                     ": unknown command; use mesh, run, validate, cohort, check, "
+                                     "convert or keys (see frontmesh --help)");
         if (!args.cohort_recipe.empty() || args.jobs)
             FM_THROW(InputError,
                      std::string(args.jobs ? "-j" : "--recipe") + ": only for frontmesh cohort");
@@ -277,25 +421,7 @@ int run_cli(int argc, char** argv) {
             std::cout << args.recipe << ": valid; output in " << recipe.output.dir << '\n';
             return 0;
         }
-        std::unique_ptr<tbb::global_control> threads;
-        if (args.threads > 0)
-            threads =
-                std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
-                                                      static_cast<std::size_t>(args.threads));
-        RunOptions options;
-        options.from = args.from;
-        options.until = args.until;
-        options.force = args.force;
-        options.quiet = args.quiet;
-        const std::string result = run_recipe(recipe, options);
-        const auto dir = std::filesystem::path(recipe.output.dir);
-        std::cout << "\nResult:      " << result
-                  << "\nCheckpoints: " << (dir / "checkpoints").string()
-                  << "\nSummary:     " << (dir / "summary.json").string()
-                  << "\nLog:         " << (dir / "frontmesh.log").string()
-                  << "\nOpen the whole run in ParaView:  paraview " << (dir / "run.pvd").string()
-                  << "\n  (or File > Open > run.pvd; colour by region_in, eta or min_angle)\n";
-        return 0;
+        return run_and_report(recipe, run_options(args));
     } catch (const core::InputError& e) {
         std::cerr << "frontmesh: error: " << e.what() << '\n';
         return 2;

@@ -322,6 +322,23 @@ void read_subject_summary(SubjectResult& r) {
             last = &stage;
         }
     r.status = any_stage && !any_ran ? SubjectStatus::Skipped : SubjectStatus::Ok;
+    if (const JsonValue* regions = summary.member("regions");
+        regions && regions->kind == JsonValue::Kind::Array)
+        for (const JsonValue& region : regions->items) {
+            const JsonValue* label = region.member("label");
+            const JsonValue* name = region.member("name");
+            if (!label || label->kind != JsonValue::Kind::Number) continue;
+            std::string text = std::to_string(static_cast<long long>(label->number));
+            if (name && name->kind == JsonValue::Kind::String) text += ":" + name->text;
+            r.region_names.push_back(text);
+        }
+    if (const JsonValue* outputs = summary.member("outputs");
+        outputs && outputs->kind == JsonValue::Kind::Array)
+        for (const JsonValue& output : outputs->items)
+            if (const JsonValue* file = output.member("file");
+                file && file->kind == JsonValue::Kind::String &&
+                file->text.find('/') == std::string::npos)
+                r.outputs.push_back(file->text);
     if (const JsonValue* quality = last ? last->member("quality") : nullptr) {
         auto number = [](const JsonValue* object, const char* key) -> std::optional<double> {
             const JsonValue* v = object ? object->member(key) : nullptr;
@@ -405,11 +422,22 @@ std::string optional_json(const std::optional<T>& value) {
         return std::to_string(*value);
 }
 
+std::string json_list(const std::vector<std::string>& items) {
+    std::string text = "[";
+    for (std::size_t i = 0; i < items.size(); ++i) text += (i ? ", " : "") + json_quote(items[i]);
+    return text + "]";
+}
+
 void write_summaries(const CohortResult& result, const Manifest& manifest,
                      const std::string& recipe, int jobs) {
     std::ostringstream csv;
+    auto joined = [](const std::vector<std::string>& items) {
+        std::string text;
+        for (const auto& item : items) text += (text.empty() ? "" : ";") + item;
+        return text;
+    };
     csv << "id,status,exit_code,wall_s,total_wall_s,faces,regions,regions_closed,nodes,tets,"
-           "fraction_skewness_over_0.8,min_dihedral_deg,error\n";
+           "fraction_skewness_over_0.8,min_dihedral_deg,region_names,outputs,error\n";
     for (const auto& r : result.subjects)
         csv << csv_field(r.id) << ',' << subject_status_name(r.status) << ',' << r.exit_code << ','
             << optional_text(std::optional<double>(r.wall_s)) << ','
@@ -417,6 +445,7 @@ void write_summaries(const CohortResult& result, const Manifest& manifest,
             << optional_text(r.regions) << ',' << optional_text(r.regions_closed) << ','
             << optional_text(r.nodes) << ',' << optional_text(r.tets) << ','
             << optional_text(r.skewness_over_08) << ',' << optional_text(r.min_dihedral_deg) << ','
+            << csv_field(joined(r.region_names)) << ',' << csv_field(joined(r.outputs)) << ','
             << csv_field(r.error) << '\n';
     io::write_text_atomically((fs::path(result.root) / kSummaryCsv).string(), csv.str());
 
@@ -440,6 +469,8 @@ void write_summaries(const CohortResult& result, const Manifest& manifest,
              << ", \"nodes\": " << optional_json(r.nodes) << ", \"tets\": " << optional_json(r.tets)
              << ", \"fraction_skewness_over_0.8\": " << optional_json(r.skewness_over_08)
              << ", \"min_dihedral_deg\": " << optional_json(r.min_dihedral_deg)
+             << ",\n     \"region_names\": " << json_list(r.region_names)
+             << ", \"outputs\": " << json_list(r.outputs)
              << ",\n     \"image\": " << json_quote(manifest.subjects[i].image)
              << ", \"dir\": " << json_quote(r.dir)
              << ", \"log\": " << json_quote((fs::path(r.dir) / kRunLog).string())
@@ -745,6 +776,18 @@ CohortResult run_cohort(const std::string& manifest_path, const CohortOptions& o
         }
         running.push_back(Job{index, pid, t0});
     };
+    // A run refused as bad input (exit 2) for a value of the manifest's row, its image or
+    // one of its cells (the error starts with that key), is the row's error: it names the
+    // manifest's file and line, as the checks before any run do (issue 22).
+    auto blame_row = [&](SubjectResult& r, const CohortSubject& subject) {
+        if (r.exit_code != 2) return;
+        const std::string key = r.error.substr(0, r.error.find(": "));
+        bool from_row = key == "input.image";
+        for (const auto& [column, value] : subject.overrides) from_row |= column == key;
+        if (from_row)
+            r.error = manifest_path + ":" + std::to_string(subject.line) + ": subject '" +
+                      subject.id + "': " + r.error;
+    };
     auto finish = [&](const Job& job, int status) {
         SubjectResult& r = result.subjects[job.index];
         r.wall_s = std::chrono::duration<double>(Clock::now() - job.start).count();
@@ -761,6 +804,7 @@ CohortResult run_cohort(const std::string& manifest_path, const CohortOptions& o
             r.status = SubjectStatus::Failed;
             if (r.error.empty()) r.error = last_error_line(fs::path(r.dir) / kRunLog);
             if (r.error.empty()) r.error = "exit code " + std::to_string(r.exit_code);
+            blame_row(r, manifest.subjects[job.index]);
         }
         report(r);
     };

@@ -76,6 +76,8 @@ struct SubjectResult {
     std::optional<long long> nodes, tets;              ///< a tetrahedral result
     std::optional<double> skewness_over_08;            ///< fraction of tets with skewness > 0.8
     std::optional<double> min_dihedral_deg;            ///< smallest dihedral angle of the tets
+    std::vector<std::string> region_names;  ///< "LABEL:NAME" (or "LABEL") per region of the result
+    std::vector<std::string> outputs;       ///< result files in ROOT/ID (not the checkpoints)
     std::string error;  ///< failed: the child's last "frontmesh: error:" line, without that prefix
 };
 

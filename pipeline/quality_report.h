@@ -26,13 +26,44 @@ struct QualityHistograms {
     std::size_t surface_over_08 = 0, tet_over_08 = 0;  ///< skewness > 0.8
     double surface_mean = 0.0, tet_mean = 0.0, tet_max = 0.0;
     double min_dihedral_deg = 180.0, max_dihedral_deg = 0.0;
-    /// Per region: tets, mean skewness, tets with skewness > 0.8, smallest dihedral angle.
+    /// Edge lengths over the six edges of every tet (an edge counts once per tet it is in).
+    struct Edges {
+        double min_mm = 0.0, max_mm = 0.0, mean_mm = 0.0, stddev_mm = 0.0;
+    };
+    Edges edges;
+    /// Per region: tets, volume, mean and worst skewness, tets with skewness > 0.8, smallest
+    /// dihedral angle, edge lengths.
     struct Region {
         std::size_t tets = 0, over_08 = 0;
-        double mean = 0.0, min_dihedral_deg = 180.0;
+        double mean = 0.0, max = 0.0, min_dihedral_deg = 180.0, volume_mm3 = 0.0;
+        Edges edges;
     };
     std::map<core::Label, Region> regions;
 };
+
+/// What report.html tells beyond the mesh's own figures (issue 22, item 8); every part may
+/// be empty.
+struct ReportContext {
+    std::string title = "frontmesh run";              ///< heads the page (e.g. the recipe)
+    std::map<core::Label, std::string> region_names;  ///< from the label table
+    std::map<core::Label, double> voxel_volume_mm3;   ///< per label: its voxels' volume
+    std::string frame;                                ///< "lps" or "ras"
+    /// One stage of the run: timings and the parameters it ran with.
+    struct Stage {
+        std::string name;
+        bool reused = false;  ///< its checkpoint was reused: timings of the run that made it
+        double wall_s = 0.0, peak_rss_mb = 0.0;
+        std::vector<std::pair<std::string, std::string>> parameters;  ///< key, value (YAML)
+    };
+    std::vector<Stage> stages;
+};
+
+/// A picture of the mesh: the tets cut by the plane z = mid-height of the mesh's bounding
+/// box, one polygon per tet drawn in its region's colour (outlined, so elements show),
+/// with a legend of region names (`names`, else the labels) and a millimetre scale.
+/// Self-contained SVG text, about 100 bytes per cut tet. O(tets).
+std::string svg_cross_section(const core::TetMesh& mesh,
+                              const std::map<core::Label, std::string>& names = {});
 
 /// Histograms of `mesh` (deterministic; O(tets + faces)). `figures`, when given, are
 /// core::tet_figures of every tet in order (else computed here).
@@ -40,15 +71,17 @@ QualityHistograms quality_histograms(const core::TetMesh& mesh,
                                      const std::vector<core::TetFigures>* figures = nullptr);
 
 /// An SVG bar chart of one or more histograms over [lo, hi] (same bin count), bars as a
-/// percentage of each series' total, side by side per bin; counts of the bins above
-/// `mark_from` (e.g. skewness 0.8) written above their bars. Self-contained SVG text.
+/// percentage of each series' total, side by side per bin; counts of the bins starting at
+/// or above `mark_from` (e.g. skewness 0.8) or ending at or below `mark_below` (e.g. 20
+/// degrees) written above their bars, upright text no wider than its bar so that no two
+/// counts overlap. Self-contained SVG text.
 struct HistogramSeries {
     std::string name;
     std::vector<std::size_t> counts;
 };
 std::string svg_histogram(const std::string& title, const std::string& x_label, double lo,
                           double hi, const std::vector<HistogramSeries>& series,
-                          double mark_from = 2.0);
+                          double mark_from = 2.0, double mark_below = -1.0);
 
 /// Writes surface_skewness.svg, tet_skewness.svg, dihedral.svg and report.html into `dir`
 /// (atomically; the folder is created). `before` is the mesh before refinement (the tetra
@@ -64,5 +97,13 @@ std::vector<std::string> write_quality_report(const std::string& dir, const core
 std::vector<std::string> write_quality_report(
     const std::string& dir, const core::TetMesh& mesh, const QualityHistograms* before,
     const std::string& title, const std::vector<core::TetFigures>* figures = nullptr);
+
+/// The full report: names, per-region volumes against the voxels, element sizes, the
+/// stages' timings and parameters, the histograms and a cross-section of the mesh
+/// (svg_cross_section, also written as cross_section.svg).
+std::vector<std::string> write_quality_report(const std::string& dir, const core::TetMesh& mesh,
+                                              const QualityHistograms* before,
+                                              const ReportContext& context,
+                                              const std::vector<core::TetFigures>* figures);
 
 }  // namespace frontmesh::pipeline

@@ -1,7 +1,10 @@
 #include "pipeline/recipe.h"
 
 #include <algorithm>
+#include <cmath>
+#include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <functional>
 #include <map>
 #include <sstream>
@@ -323,12 +326,36 @@ const std::vector<KeySpec>& key_specs() {
     FM_THROW(InputError, message);
 }
 
+// A YAML value as one line of flow text ("[1, 4]", "{3: 0.8}", "'a: b'").
+std::string flow_text(const YAML::Node& value) {
+    YAML::Emitter out;
+    out.SetSeqFormat(YAML::Flow);
+    out.SetMapFormat(YAML::Flow);
+    out << value;
+    return out.c_str();
+}
+
+// Recipe::values holds every key once, in key_specs() order (filled with the defaults
+// first): the value of `key` is replaced in place.
+void record_value(Recipe& recipe, const std::string& key, const YAML::Node& value) {
+    for (auto& [name, text] : recipe.values)
+        if (name == key) {
+            text = value.IsNull() ? "null" : flow_text(value);
+            return;
+        }
+    recipe.values.emplace_back(key, value.IsNull() ? "null" : flow_text(value));
+}
+
 void apply_key(const std::string& key, const YAML::Node& value, Recipe& recipe,
                const std::string& origin) {
     for (const auto& spec : key_specs())
         if (spec.path == key) {
-            if (value.IsNull() && spec.default_yaml == "null") return;  // explicit "not set"
+            if (value.IsNull() && spec.default_yaml == "null") {  // explicit "not set"
+                record_value(recipe, key, value);
+                return;
+            }
             spec.apply(value, recipe, Where{origin, key});
+            record_value(recipe, key, value);
             return;
         }
     unknown_key(key, origin);
@@ -403,17 +430,28 @@ void apply_override(const std::string& item, Recipe& recipe) {
 }  // namespace
 
 Recipe load_recipe(const std::string& path, const std::vector<std::string>& overrides) {
-    Recipe recipe;
     // A folder or a named pipe is refused by stat, without opening it.
     core::require_input_file(path, "recipe ");
+    std::ifstream in(path, std::ios::binary);
+    std::stringstream text;
+    text << in.rdbuf();
+    if (!in && !in.eof()) FM_THROW(InputError, path + ": cannot read the recipe");
+    return parse_recipe(text.str(), path, overrides);
+}
+
+Recipe parse_recipe(const std::string& text, const std::string& path,
+                    const std::vector<std::string>& overrides) {
+    Recipe recipe;
     recipe.path = fs::absolute(path).lexically_normal().string();
-    for (const auto& spec : key_specs())
-        if (spec.default_yaml != "null")
-            spec.apply(YAML::Load(spec.default_yaml), recipe, Where{"defaults", spec.path});
+    for (const auto& spec : key_specs()) {
+        const YAML::Node value = YAML::Load(spec.default_yaml);
+        if (spec.default_yaml != "null") spec.apply(value, recipe, Where{"defaults", spec.path});
+        record_value(recipe, spec.path, value);
+    }
 
     YAML::Node root;
     try {
-        root = YAML::LoadFile(path);
+        root = YAML::Load(text);
     } catch (const YAML::Exception& e) {
         FM_THROW(InputError,
                  path + ":" + std::to_string(e.mark.line + 1) + ": YAML syntax error: " + e.msg);
@@ -459,6 +497,13 @@ Recipe load_recipe(const std::string& path, const std::vector<std::string>& over
     // An image's components are measured in voxels, by extract (issue 20).
     recipe.extract.min_component_volume_mm3 = recipe.repair.min_component_volume_mm3;
     recipe.repair.is_from_image = !in.image.empty();
+    // Paths as resolved, so that the values read the same from any folder.
+    for (const auto& [key, value] :
+         {std::pair<const char*, const std::string*>{"input.image", &in.image},
+          {"input.surface", &in.surface},
+          {"input.label_names", &in.label_names},
+          {"output.dir", &recipe.output.dir}})
+        if (!value->empty()) record_value(recipe, key, YAML::Node(*value));
     surface::validate(recipe.extract);
     surface::validate(recipe.repair);
     surface::validate(recipe.remesh);
@@ -524,6 +569,84 @@ std::string canonical_params(const Recipe& recipe, const std::string& section) {
         FM_CHECK(false && "unknown recipe section");
     }
     return s.str();
+}
+
+}  // namespace frontmesh::pipeline
+
+namespace frontmesh::pipeline {
+namespace {
+
+std::string json_string(const std::string& text) {
+    std::string out = "\"";
+    for (const unsigned char c : text) {
+        if (c == '"' || c == '\\') {
+            out += '\\';
+            out += static_cast<char>(c);
+        } else if (c < 0x20) {
+            char buf[8];
+            std::snprintf(buf, sizeof buf, "\\u%04x", c);
+            out += buf;
+        } else {
+            out += static_cast<char>(c);
+        }
+    }
+    return out + "\"";
+}
+
+// A YAML value as JSON; `depth` bounds the recursion (recipe values nest at most twice).
+std::string yaml_as_json(const YAML::Node& node, int depth) {
+    if (depth > 16 || !node.IsDefined() || node.IsNull()) return "null";
+    if (node.IsSequence()) {
+        std::string out = "[";
+        for (std::size_t i = 0; i < node.size(); ++i)
+            out += (i ? ", " : "") + yaml_as_json(node[i], depth + 1);
+        return out + "]";
+    }
+    if (node.IsMap()) {
+        std::string out = "{";
+        bool first = true;
+        for (const auto& entry : node) {
+            out += (first ? "" : ", ") + json_string(entry.first.Scalar()) + ": " +
+                   yaml_as_json(entry.second, depth + 1);
+            first = false;
+        }
+        return out + "}";
+    }
+    const std::string& text = node.Scalar();
+    if (node.Tag() != "!") {  // plain scalars only: a quoted '1' stays a string
+        if (text == "true" || text == "false") return text;
+        double number = 0.0;
+        if (YAML::convert<double>::decode(node, number) && std::isfinite(number) &&
+            text.find_first_not_of("0123456789+-.eE") == std::string::npos)
+            return text;
+    }
+    return json_string(text);
+}
+
+}  // namespace
+
+std::string effective_recipe_json(const Recipe& recipe, const std::string& section) {
+    std::string out = "{";
+    bool first = true;
+    for (const auto& [key, value] : recipe.values) {
+        if (!section.empty() && key.rfind(section + ".", 0) != 0) continue;
+        out += (first ? "" : ", ") + json_string(key) + ": " + yaml_as_json(YAML::Load(value), 0);
+        first = false;
+    }
+    return out + "}";
+}
+
+std::string effective_recipe_yaml(const Recipe& recipe) {
+    std::string out, section;
+    for (const auto& [key, value] : recipe.values) {
+        const auto dot = key.find('.');
+        if (key.substr(0, dot) != section) {
+            section = key.substr(0, dot);
+            out += (out.empty() ? "" : "\n") + section + ":\n";
+        }
+        out += "  " + key.substr(dot + 1) + ": " + value + "\n";
+    }
+    return out;
 }
 
 }  // namespace frontmesh::pipeline

@@ -37,6 +37,10 @@ struct OutputSection {
 
 struct Recipe {
     std::string path;  ///< the recipe file, absolute
+    /// Every key with the value in effect (default, then the file, then --set) as YAML flow
+    /// text, in documentation order; paths absolute. summary.json and `frontmesh mesh`
+    /// write it.
+    std::vector<std::pair<std::string, std::string>> values;
     InputSection input;
     OutputSection output;
     surface::ExtractParams extract;
@@ -53,6 +57,20 @@ struct Recipe {
 /// missing files, a recipe that is not a readable file, an output.dir that may not be used
 /// (check_output_dir, pipeline/output_dir.h).
 Recipe load_recipe(const std::string& path, const std::vector<std::string>& overrides = {});
+
+/// As load_recipe, from recipe text that is to live at `path` (not read; it need not exist
+/// yet): relative input paths resolve against its folder and errors name it.
+Recipe parse_recipe(const std::string& text, const std::string& path,
+                    const std::vector<std::string>& overrides = {});
+
+/// The recipe as a complete recipe file: every key with its value in effect (Recipe::values),
+/// section by section. Loading it gives the same recipe, whatever folder it is read from.
+std::string effective_recipe_yaml(const Recipe& recipe);
+
+/// The values in effect as one JSON object {"key": value, ...} (YAML numbers, booleans,
+/// null, lists and mappings as their JSON kinds, other scalars as strings), of the keys of
+/// `section` ("tetra") or, when empty, of every key.
+std::string effective_recipe_json(const Recipe& recipe, const std::string& section = {});
 
 /// One recipe key as declared: by its stage (e.g. volume::tetra_keys()) or, for input.* and
 /// output.*, by the recipe reader.

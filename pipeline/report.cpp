@@ -138,14 +138,75 @@ std::string quality_json(const volume::TetQuality& q) {
     return s.str();
 }
 
+// The log line of a tet mesh: counts, verdict, volume error and quality. Defect counts
+// appear only when some are not zero (a valid mesh's line lists no zeros).
+std::string tet_line(const volume::TetMeshCheck& c, std::size_t closed, std::size_t regions) {
+    std::ostringstream s;
+    s << c.nodes << " nodes, " << c.tets << " tets, " << regions << " region"
+      << (regions == 1 ? "" : "s");
+    if (closed != regions) s << " (" << closed << " closed)";
+    if (c.valid()) {
+        s << ", valid";
+    } else {
+        s << ", INVALID (";
+        bool first = true;
+        for (const auto& [what, n] :
+             {std::pair<const char*, std::size_t>{"inverted", c.inverted_tets},
+              {"non-conforming", c.nonconforming_faces},
+              {"open", c.open_faces},
+              {"missing", c.missing_faces},
+              {"wrong side", c.wrong_side_faces},
+              {"inner on surface", c.inner_faces_on_surface}})
+            if (n) {
+                s << (first ? "" : ", ") << what << ' ' << n;
+                first = false;
+            }
+        s << ')';
+    }
+    const double rel =
+        c.enclosed_volume != 0.0 ? (c.volume - c.enclosed_volume) / c.enclosed_volume : 0.0;
+    char buf[240];
+    std::snprintf(buf, sizeof buf,
+                  ", volume %.6g mm^3 (relative error %.2g), skewness mean %.4f max %.4f", c.volume,
+                  rel, c.quality.mean_skewness, c.quality.max_skewness);
+    s << buf;
+    if (c.quality.skewness_over_08) {
+        std::snprintf(buf, sizeof buf, ", %zu over 0.8 (%.4f%%)", c.quality.skewness_over_08,
+                      c.tets ? 100.0 * double(c.quality.skewness_over_08) / double(c.tets) : 0.0);
+        s << buf;
+    }
+    std::snprintf(buf, sizeof buf, ", min dihedral %.2f deg", c.quality.min_dihedral_deg);
+    return s.str() + buf;
+}
+
+// The boundary and interface triangles of `mesh` as a surface network, for the
+// per-region closedness checks. All nodes are copied: a mesh read from a file need not
+// number its surface nodes first.
+core::SurfaceNetwork boundary_network(const core::TetMesh& mesh) {
+    core::SurfaceNetwork s;
+    s.xyz = mesh.xyz;
+    s.faces = mesh.faces;
+    s.region_in = mesh.region_in;
+    s.region_out = mesh.region_out;
+    return s;
+}
+
 }  // namespace
 
 TetReport tet_report(const core::TetMesh& mesh, const std::vector<core::TetFigures>* figures) {
     const volume::TetMeshCheck c = volume::check_tet_mesh(mesh, figures);
+    // Closed and oriented boundaries per region, as for a surface (issue 22: a tetrahedral
+    // result had no regions_closed, so the cohort summary's column stayed empty).
+    std::size_t closed = 0, oriented = 0;
+    const auto checks = core::check_region_boundaries(boundary_network(mesh));
+    for (const auto& b : checks) {
+        closed += b.is_closed();
+        oriented += b.is_oriented();
+    }
     std::ostringstream s;
     s << "{\"nodes\": " << c.nodes << ", \"tets\": " << c.tets
-      << ", \"boundary_faces\": " << mesh.face_count()
-      << ", \"valid\": " << (c.valid() ? "true" : "false")
+      << ", \"boundary_faces\": " << mesh.face_count() << ", \"regions_closed\": " << closed
+      << ", \"regions_oriented\": " << oriented << ", \"valid\": " << (c.valid() ? "true" : "false")
       << ", \"inverted_tets\": " << c.inverted_tets
       << ", \"nonconforming_faces\": " << c.nonconforming_faces
       << ", \"open_faces\": " << c.open_faces << ", \"missing_faces\": " << c.missing_faces
@@ -164,7 +225,7 @@ TetReport tet_report(const core::TetMesh& mesh, const std::vector<core::TetFigur
         first = false;
     }
     s << "]}";
-    return {s.str(), c.summary(), c.valid()};
+    return {s.str(), tet_line(c, closed, c.region_quality.size()), c.valid()};
 }
 
 }  // namespace frontmesh::pipeline

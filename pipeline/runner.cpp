@@ -15,7 +15,9 @@
 #include <map>
 #include <mutex>
 #include <optional>
+#include <regex>
 #include <sstream>
+#include <string_view>
 #include <variant>
 
 #include "io/atomic_file.h"
@@ -29,6 +31,7 @@
 #include "pipeline/output_dir.h"
 #include "pipeline/quality_report.h"
 #include "pipeline/report.h"
+#include "pipeline/terminal.h"
 #include "pipeline/version.h"
 #include "surface/extract.h"
 #include "surface/remesh.h"
@@ -160,6 +163,34 @@ std::string now_text() {
     return buf;
 }
 
+// A moment as ISO 8601 / RFC 3339 local time with its offset: "2026-12-03T18:41:56+01:00".
+std::string iso_time(std::chrono::system_clock::time_point when) {
+    const std::time_t t = std::chrono::system_clock::to_time_t(when);
+    std::tm local{};
+    localtime_r(&t, &local);
+    char buf[40];
+    std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%S%z", &local);
+    const std::string text = buf;  // "+0100": RFC 3339 wants "+01:00"
+    if (text.size() < 5) return text;
+    std::ostringstream out;
+    out << std::string_view(text).substr(0, text.size() - 2) << ':'
+        << std::string_view(text).substr(text.size() - 2);
+    return out.str();
+}
+
+// The labels listed as "labels": [1, 2] in a stage's part of summary.json (written by
+// write_stage_summary); empty when there is none.
+std::vector<core::Label> labels_in_part(const std::string& part) {
+    std::vector<core::Label> labels;
+    const std::string key = "\"labels\": [";
+    const auto at = part.find(key);
+    if (at == std::string::npos) return labels;
+    std::istringstream list(part.substr(at + key.size(), part.find(']', at) - at - key.size()));
+    for (std::string item; std::getline(list, item, ',');)  // one pass per label
+        labels.push_back(static_cast<core::Label>(std::stol(item)));
+    return labels;
+}
+
 std::string read_text(const fs::path& path) {
     std::ifstream in(path);
     std::stringstream s;
@@ -185,9 +216,13 @@ public:
         const std::lock_guard lock(mutex_);
         if (level == core::LogLevel::Debug) return write_file("DEBUG " + message);
         const bool warning = level == core::LogLevel::Warning;
-        if (warning || !quiet_) {
+        // A terminal leaves out lines that only count zeros (the log file keeps them).
+        if (warning || (!quiet_ && !(tty_ && lists_only_zeros(message)))) {
             clear_progress_locked();
-            std::cerr << (warning ? "warning: " : "") << message << '\n';
+            // A terminal gets long lines broken at word boundaries; a pipe or file gets one
+            // line per message, as the log file does.
+            const std::string text = (warning ? "warning: " : "") + message;
+            std::cerr << (tty_ ? wrap_words(text, columns(), 4) : text) << '\n';
         }
         write_file((level == core::LogLevel::Warning ? "WARN  " : "INFO  ") + message);
     }
@@ -196,16 +231,28 @@ public:
         const std::lock_guard lock(mutex_);
         write_file("INFO  " + message);
     }
+    /// The stage whose progress follows starts now (its elapsed time counts from here).
+    void begin_stage() {
+        const std::lock_guard lock(mutex_);
+        stage_start_ = std::chrono::steady_clock::now();
+        last_what_.clear();
+    }
     void progress(const std::string& stage, double fraction, const std::string& what) {
         if (quiet_) return;
         const std::lock_guard lock(mutex_);
-        const int percent = static_cast<int>(fraction * 100.0 + 0.5);
-        char buf[200];
-        std::snprintf(buf, sizeof buf, "  %-8s %3d%%  %s", stage.c_str(), percent, what.c_str());
         if (tty_) {
-            std::cerr << "\r\033[K" << buf << std::flush;
+            // One line redrawn in place: stage, percent, elapsed time and time left.
+            const double elapsed =
+                std::chrono::duration<double>(std::chrono::steady_clock::now() - stage_start_)
+                    .count();
+            std::cerr << "\r\033[K" << progress_line(stage, fraction, what, elapsed, columns())
+                      << std::flush;
             progress_shown_ = true;
         } else if (what != last_what_) {
+            const int percent = static_cast<int>(fraction * 100.0 + 0.5);
+            char buf[200];
+            std::snprintf(buf, sizeof buf, "  %-8s %3d%%  %s", stage.c_str(), percent,
+                          what.c_str());
             std::cerr << buf << '\n';
         }
         last_what_ = what;
@@ -216,6 +263,10 @@ public:
     }
 
 private:
+    static std::size_t columns() {
+        const std::size_t n = terminal_columns(STDERR_FILENO);
+        return n > 0 ? n : kDefaultColumns;
+    }
     void clear_progress_locked() {
         if (progress_shown_) std::cerr << "\r\033[K" << std::flush;
         progress_shown_ = false;
@@ -234,6 +285,7 @@ private:
     bool quiet_, tty_;
     bool progress_shown_ = false;
     std::string last_what_;
+    std::chrono::steady_clock::time_point stage_start_ = std::chrono::steady_clock::now();
     std::ofstream file_;
     std::vector<std::string> pending_;
 };
@@ -334,6 +386,7 @@ private:
     void check_cancelled(const std::string& when);
     [[noreturn]] void stop(const std::string& when);
     void read_input();
+    std::string image_json(const core::LabelImage& image, int pad) const;
     void prepare_folder();
     void remove_stale_temp_files();
     void committed(const fs::path& file);
@@ -342,11 +395,12 @@ private:
     StageOutput call_stage(int i, core::StageContext& ctx);
     Quality write_checkpoint(int i, const StageOutput& output, core::StageContext& ctx);
     void write_stage_summary(int i, const core::StageContext& ctx, double wall,
-                             const Quality& quality);
+                             const Quality& quality, std::chrono::system_clock::time_point started);
     std::string write_results();
     std::string results_key() const;
     void write_exports(const fs::path& result, const fs::path& last_checkpoint,
                        const std::vector<fs::path>& stale, bool ran_any);
+    ReportContext report_context() const;
     void write_pvd();
     void write_summary(const std::string& status, const std::string& error);
 
@@ -365,6 +419,8 @@ private:
     std::vector<std::string> hashes_;
     StageData data_;  // the input of the next stage to run, then the last stage's result
     bool folder_ready_ = false;
+    const std::chrono::system_clock::time_point started_ = std::chrono::system_clock::now();
+    std::string input_json_;  // the image's metadata, until the folder exists to hold it
     std::optional<QualityHistograms> tetra_histograms_;  // kept for the quality report
     std::vector<core::TetFigures> figures_;              // of the last tet mesh a stage made
 };
@@ -465,6 +521,7 @@ void Run::read_input() {
         info("reading image " + recipe_.input.image);
         data_ = io::read_label_image(recipe_.input.image, read);
         const auto& image = std::get<core::LabelImage>(data_);
+        input_json_ = image_json(image, read.pad);
         char buf[200];
         std::snprintf(buf, sizeof buf,
                       "image %d x %d x %d voxels (padded), spacing %.3g x %.3g x %.3g mm, frame %s",
@@ -483,6 +540,37 @@ void Run::read_input() {
         info("reading checkpoint " + out_.checkpoint(stages_[first_ - 1]).string());
         data_ = read_checkpoint(out_.checkpoint(stages_[first_ - 1]), stages_[first_ - 1].out);
     }
+}
+
+// checkpoints/input.json: what summary.json and report.html say about the image (the
+// file's dims, spacing, origin of its first voxel and axes in the output frame; voxels per
+// label), kept beside the checkpoints so that a re-run that reuses them still has it.
+std::string Run::image_json(const core::LabelImage& image, int pad) const {
+    std::map<core::Label, std::size_t> voxels;
+    for (const core::Label l : image.labels)  // one pass over the voxels
+        if (l != 0) ++voxels[l];
+    const Eigen::Vector3d first = image.physical(Eigen::Vector3d::Constant(pad));
+    auto triple = [](const Eigen::Vector3d& v) {
+        std::ostringstream out;
+        out << '[' << json_number(v.x()) << ", " << json_number(v.y()) << ", " << json_number(v.z())
+            << ']';
+        return out.str();
+    };
+    std::ostringstream s;
+    s << "{\"path\": " << json_quote(recipe_.input.image) << ", \"dims\": ["
+      << image.dims[0] - 2 * pad << ", " << image.dims[1] - 2 * pad << ", "
+      << image.dims[2] - 2 * pad << "], \"spacing_mm\": " << triple(image.spacing)
+      << ", \"origin_mm\": " << triple(first) << ", \"direction\": ["
+      << triple(image.direction.col(0)) << ", " << triple(image.direction.col(1)) << ", "
+      << triple(image.direction.col(2)) << "], \"frame\": " << json_quote(frame_)
+      << ", \"voxel_volume_mm3\": " << json_number(image.voxel_volume()) << ", \"label_voxels\": {";
+    bool first_label = true;
+    for (const auto& [label, n] : voxels) {
+        s << (first_label ? "" : ", ") << '"' << label << "\": " << n;
+        first_label = false;
+    }
+    s << "}}";
+    return s.str();
 }
 
 // Temporary files a killed run left (".NAME.tmp-PID-N", io/atomic_file.h), removed before
@@ -512,9 +600,12 @@ void Run::mark_reused_stages() {
     for (int i = entry_; i < first_ && i <= last_; ++i) {
         if (!fs::exists(out_.with_ext(stages_[i], ".json"))) continue;
         std::string part = read_text(out_.with_ext(stages_[i], ".json"));
-        const std::string ran = "\"status\": \"ran\"";
+        // Its timings, timestamps and figures stay those of the run that made it.
+        const std::string ran = "\"status\": \"ran\"", fresh = "\"reused\": false";
         if (const auto at = part.find(ran); at != std::string::npos)
             part.replace(at, ran.size(), "\"status\": \"skipped\"");
+        if (const auto at = part.find(fresh); at != std::string::npos)
+            part.replace(at, fresh.size(), "\"reused\": true");
         prepare_folder();
         io::write_text_atomically(out_.with_ext(stages_[i], ".json").string(), part);
     }
@@ -535,9 +626,11 @@ void Run::run_one(int i) {
         .append(std::to_string(last_ + 1))
         .append("] ");
     info(heading + stage.name);
+    log_.begin_stage();
     diagnostics_.start(stage.name);
     std::vector<core::TetFigures>().swap(figures_);  // the last stage's: not held while this runs
     const auto t0 = std::chrono::steady_clock::now();
+    const auto started = std::chrono::system_clock::now();
     // A surface stage that loses a whole region says so (issue 20: nothing disappears
     // silently); extract names what it leaves out itself.
     std::vector<core::Label> regions_before;
@@ -556,8 +649,13 @@ void Run::run_one(int i) {
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     data_ = std::move(output.data);
     prepare_folder();
+    if (!input_json_.empty()) {
+        io::write_text_atomically((out_.dir / "checkpoints" / "input.json").string(),
+                                  input_json_ + "\n");
+        input_json_.clear();
+    }
     const Quality quality = write_checkpoint(i, output, ctx);
-    write_stage_summary(i, ctx, wall, quality);
+    write_stage_summary(i, ctx, wall, quality, started);
 }
 
 // Runs stage i on data_. A failure is logged and recorded in summary.json before it goes
@@ -625,11 +723,24 @@ Quality Run::write_checkpoint(int i, const StageOutput& output, core::StageConte
 
 // checkpoints/NN-STAGE.json (the stage's entry of summary.json) and .hash, and the log line.
 void Run::write_stage_summary(int i, const core::StageContext& ctx, double wall,
-                              const Quality& quality) {
+                              const Quality& quality,
+                              std::chrono::system_clock::time_point started) {
     const StageDef& stage = stages_[i];
+    // The regions of the stage's result, for the names in summary.json.
+    std::vector<core::Label> labels;
+    if (const auto* mesh = std::get_if<core::TetMesh>(&data_)) {
+        labels = mesh->region;
+        std::sort(labels.begin(), labels.end());
+        labels.erase(std::unique(labels.begin(), labels.end()), labels.end());
+    } else if (const auto* surface = std::get_if<core::SurfaceNetwork>(&data_)) {
+        labels = core::region_labels(*surface);
+    }
     std::ostringstream part;
     part << "{\"name\": " << json_quote(stage.name)
-         << ", \"status\": \"ran\", \"wall_s\": " << json_number(wall)
+         << ", \"status\": \"ran\", \"reused\": false, \"started\": "
+         << json_quote(iso_time(started))
+         << ", \"finished\": " << json_quote(iso_time(std::chrono::system_clock::now()))
+         << ", \"wall_s\": " << json_number(wall)
          << ", \"peak_rss_mb\": " << json_number(peak_rss_mb()) << ", \"checkpoint\": "
          << json_quote(fs::relative(out_.checkpoint(stage), out_.dir).string())
          << ", \"hash\": " << json_quote(hashes_[i]) << ",\n     \"counters\": {";
@@ -649,7 +760,10 @@ void Run::write_stage_summary(int i, const core::StageContext& ctx, double wall,
              << json_number(d.position_mm[1]) << ", " << json_number(d.position_mm[2])
              << "], \"reason\": " << json_quote(d.reason) << "}";
     }
-    part << "],\n     \"quality\": " << quality.json << "}";
+    part << "],\n     \"labels\": [";
+    for (std::size_t l = 0; l < labels.size(); ++l) part << (l ? ", " : "") << labels[l];
+    part << "],\n     \"parameters\": " << effective_recipe_json(recipe_, stage.name)
+         << ",\n     \"quality\": " << quality.json << "}";
     io::write_text_atomically(out_.with_ext(stage, ".json").string(), part.str());
     committed(out_.with_ext(stage, ".json"));
     io::write_text_atomically(out_.with_ext(stage, ".hash").string(), hashes_[i] + "\n");  // last
@@ -765,11 +879,54 @@ void Run::write_exports(const fs::path& result, const fs::path& last_checkpoint,
         if (!tetra_histograms_ && fs::exists(tetra_checkpoint))
             tetra_histograms_ = quality_histograms(io::read_tet_mesh(tetra_checkpoint.string()));
         write_quality_report(out_.dir.string(), mesh,
-                             tetra_histograms_ ? &*tetra_histograms_ : nullptr, recipe_.path,
+                             tetra_histograms_ ? &*tetra_histograms_ : nullptr, report_context(),
                              figures_.size() == mesh.tet_count() && ran_any ? &figures_ : nullptr);
         committed(out_.dir / "report.html");
         info("wrote " + (out_.dir / "report.html").string());
     }
+}
+
+// What report.html tells besides the mesh: names, the voxels' volume per label (from
+// checkpoints/input.json), and every stage's timing (from its part of summary.json) and
+// parameters.
+ReportContext Run::report_context() const {
+    ReportContext context;
+    context.title = recipe_.path;
+    context.frame = frame_;
+    context.region_names = names_.names();
+    const fs::path input_json = out_.dir / "checkpoints" / "input.json";
+    if (!surface_input_ && fs::exists(input_json)) {
+        const std::string text = read_text(input_json);
+        std::smatch m;
+        double voxel = 0.0;
+        if (std::regex_search(text, m, std::regex("\"voxel_volume_mm3\": ([0-9.eE+-]+)")))
+            voxel = std::stod(m[1].str());
+        if (std::regex_search(text, m, std::regex("\"label_voxels\": \\{([^}]*)\\}"))) {
+            const std::string list = m[1].str();
+            const std::regex entry("\"([0-9]+)\": ([0-9]+)");
+            for (auto it = std::sregex_iterator(list.begin(), list.end(), entry);
+                 it != std::sregex_iterator(); ++it)  // one entry per label
+                context.voxel_volume_mm3[static_cast<core::Label>(std::stol((*it)[1].str()))] =
+                    voxel * std::stod((*it)[2].str());
+        }
+    }
+    for (int i = entry_; i <= last_; ++i) {
+        const fs::path part_path = out_.with_ext(stages_[i], ".json");
+        if (!fs::exists(part_path)) continue;
+        const std::string part = read_text(part_path);
+        ReportContext::Stage stage;
+        stage.name = stages_[i].name;
+        stage.reused = part.find("\"reused\": true") != std::string::npos;
+        std::smatch m;
+        if (std::regex_search(part, m, std::regex("\"wall_s\": ([0-9.eE+-]+)")))
+            stage.wall_s = std::stod(m[1].str());
+        if (std::regex_search(part, m, std::regex("\"peak_rss_mb\": ([0-9.eE+-]+)")))
+            stage.peak_rss_mb = std::stod(m[1].str());
+        for (const auto& [key, value] : recipe_.values)
+            if (key.rfind(stage.name + ".", 0) == 0) stage.parameters.emplace_back(key, value);
+        context.stages.push_back(std::move(stage));
+    }
+    return context;
 }
 
 void Run::write_pvd() {
@@ -803,10 +960,46 @@ void Run::write_summary(const std::string& status, const std::string& error) {
             s << (any ? ", " : "") << json_quote(fs::relative(file, out_.dir).string());
             any = true;
         }
-    s << "],\n  \"total_wall_s\": "
+    s << "],\n  \"started\": " << json_quote(iso_time(started_))
+      << ",\n  \"finished\": " << json_quote(iso_time(std::chrono::system_clock::now()))
+      << ",\n  \"total_wall_s\": "
       << json_number(
-             std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count())
-      << "\n}\n";
+             std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count());
+    // The input image as read (by this run or the one whose checkpoints it reuses).
+    const fs::path input_json = out_.dir / "checkpoints" / "input.json";
+    std::string image = "null";
+    if (!surface_input_ && fs::exists(input_json)) {
+        image = read_text(input_json);
+        while (!image.empty() && image.back() == '\n') image.pop_back();
+    }
+    s << ",\n  \"input_image\": " << image;
+    // The regions of the last stage's result, with their names from the label table.
+    std::vector<core::Label> labels;
+    for (int i = last_; i >= entry_ && labels.empty(); --i)
+        if (fs::exists(out_.with_ext(stages_[i], ".json")))
+            labels = labels_in_part(read_text(out_.with_ext(stages_[i], ".json")));
+    s << ",\n  \"regions\": [";
+    for (std::size_t r = 0; r < labels.size(); ++r)
+        s << (r ? ", " : "") << "{\"label\": " << labels[r]
+          << ", \"name\": " << (names_.has(labels[r]) ? json_quote(names_.name(labels[r])) : "null")
+          << "}";
+    // What the folder holds now: the result files, then the checkpoints.
+    s << "],\n  \"outputs\": [";
+    std::vector<fs::path> files;
+    for (const fs::path& folder : {out_.dir, out_.dir / "checkpoints"})
+        if (fs::is_directory(folder))
+            for (const auto& entry : fs::directory_iterator(folder)) {
+                const std::string name = entry.path().filename().string();
+                if (entry.is_regular_file() && name[0] != '.' && name != "summary.json" &&
+                    (folder == out_.dir || entry.path().extension() == ".vtu"))
+                    files.push_back(entry.path());
+            }
+    std::sort(files.begin(), files.end());
+    for (std::size_t f = 0; f < files.size(); ++f)
+        s << (f ? ",\n    " : "\n    ")
+          << "{\"file\": " << json_quote(fs::relative(files[f], out_.dir).string())
+          << ", \"bytes\": " << fs::file_size(files[f]) << "}";
+    s << "],\n  \"effective_recipe\": " << effective_recipe_json(recipe_) << "\n}\n";
     io::write_text_atomically((out_.dir / "summary.json").string(), s.str());
 }
 

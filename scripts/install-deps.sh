@@ -14,6 +14,8 @@ packages=(
   clang-format                                   # scripts/check-format.sh (CI step)
   clang libclang-rt-14-dev                       # sanitizer build and libFuzzer targets (CI)
   snakemake                                      # examples/cohort/Snakefile (local or SLURM)
+  python3-jsonschema                             # summary.json against docs/summary.schema.json
+  chromium                                       # scripts/report-screenshot.sh (report.html)
 )
 
 missing=()

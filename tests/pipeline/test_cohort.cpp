@@ -157,6 +157,12 @@ TEST_CASE("cohort: a failed subject is recorded, the others finish, a re-run doe
     CHECK(rows[2]["exit_code"] == "2");
     CHECK_THAT(rows[2]["error"],
                Catch::Contains("input.image") && Catch::Contains("missing.mha' does not exist"));
+    // The bad row is named by the manifest's file and line (issue 22), not by the recipe.
+    CHECK_THAT(rows[2]["error"], Catch::Contains("manifest.csv:4: subject 'sub-03'"));
+    // Region names (labels without a table) and the result files of each subject.
+    CHECK(rows[1]["region_names"] == "1;2");
+    CHECK_THAT(rows[1]["outputs"],
+               Catch::Contains("surface.vtu") && !Catch::Contains("summary.json"));
     CHECK(rows[2]["faces"].empty());
     const std::string json = slurp(out / "cohort-summary.json");
     CHECK_THAT(json,

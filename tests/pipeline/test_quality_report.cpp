@@ -4,6 +4,8 @@
 #include <filesystem>
 #include <numeric>
 #include <random>
+#include <regex>
+#include <sstream>
 #include <string>
 
 #include <catch2/catch.hpp>
@@ -11,6 +13,7 @@
 #include "pipeline/core/quality.h"
 #include "pipeline/quality_report.h"
 #include "tests/fixtures/phantoms.h"
+#include "tests/fixtures/skip.h"
 #include "tests/pipeline/cli_helpers.h"
 
 using namespace frontmesh;
@@ -58,7 +61,7 @@ TEST_CASE("quality report files", "[pipeline][report]") {
 
     const std::string dir = fixtures::temp_dir("quality_report");
     const auto files = pipeline::write_quality_report(dir, after, &before, "jittered <cube>");
-    REQUIRE(files.size() == 5);
+    REQUIRE(files.size() == 6);
     for (const auto& f : files) CHECK(fs::file_size(f) > 500);
     const std::string html = frontmesh::testing::slurp(dir + "/report.html");
     CHECK_THAT(html, Catch::Contains("jittered &lt;cube&gt;"));
@@ -66,8 +69,8 @@ TEST_CASE("quality report files", "[pipeline][report]") {
     CHECK(html.find("<svg") != std::string::npos);
     CHECK(html.find("src=") == std::string::npos);  // self-contained
     // Every file parses as XML (the HTML without its doctype).
-    for (const char* f :
-         {"surface_skewness.svg", "tet_skewness.svg", "dihedral.svg", "min_dihedral.svg"}) {
+    for (const char* f : {"surface_skewness.svg", "tet_skewness.svg", "dihedral.svg",
+                          "min_dihedral.svg", "cross_section.svg"}) {
         INFO(f);
         const std::string cmd =
             "/usr/bin/python3 -c \"import sys, xml.etree.ElementTree as E; "
@@ -82,4 +85,119 @@ TEST_CASE("quality report files", "[pipeline][report]") {
     std::size_t first = 16;
     while (hb.tet_skewness[first] == 0) ++first;
     CHECK_THAT(tet_svg, Catch::Contains(">" + std::to_string(hb.tet_skewness[first]) + "</text>"));
+}
+
+namespace {
+
+// The counts written over the bars of an SVG histogram: x of each (rotated) text and its
+// font size, which is its width on the page.
+std::vector<std::pair<double, double>> count_labels(const std::string& svg) {
+    std::vector<std::pair<double, double>> labels;
+    const std::regex text("<text class=\"count\" x=\"([0-9.]+)\"[^>]* font-size=\"([0-9.]+)\"");
+    for (auto it = std::sregex_iterator(svg.begin(), svg.end(), text); it != std::sregex_iterator();
+         ++it)
+        labels.emplace_back(std::stod((*it)[1].str()), std::stod((*it)[2].str()));
+    return labels;
+}
+
+// Total area (px^2) of the polygons of the cross-section's paths, and their bounding box.
+std::pair<double, double> section_areas(const std::string& svg) {
+    double area = 0.0, x0 = 1e300, x1 = -1e300, y0 = 1e300, y1 = -1e300;
+    const std::regex path(" d=\"([^\"]*)\"");
+    for (auto it = std::sregex_iterator(svg.begin(), svg.end(), path); it != std::sregex_iterator();
+         ++it) {
+        std::istringstream d((*it)[1].str());
+        std::vector<std::pair<double, double>> polygon;
+        char c = 0;
+        // One pass per point or closing Z of the path.
+        while (d >> c) {
+            if (c == 'Z') {
+                for (std::size_t k = 0; k < polygon.size(); ++k) {
+                    const auto& [ax, ay] = polygon[k];
+                    const auto& [bx, by] = polygon[(k + 1) % polygon.size()];
+                    area += 0.5 * (ax * by - bx * ay);
+                }
+                polygon.clear();
+                continue;
+            }
+            double x = 0, y = 0;
+            char comma = 0;
+            d >> x >> comma >> y;
+            polygon.emplace_back(x, y);
+            x0 = std::min(x0, x), x1 = std::max(x1, x), y0 = std::min(y0, y), y1 = std::max(y1, y);
+        }
+    }
+    return {std::abs(area), (x1 - x0) * (y1 - y0)};
+}
+
+}  // namespace
+
+TEST_CASE("histogram counts never overlap", "[pipeline][report]") {
+    // Two series of 36 bins, every bin marked: the worst case of the dihedral charts.
+    std::vector<std::size_t> a(36), b(36);
+    for (std::size_t i = 0; i < 36; ++i) a[i] = 1000 + i * 37, b[i] = 99999 - i * 11;
+    const std::string svg = pipeline::svg_histogram("t", "deg", 0, 180, {{"a", a}, {"b", b}}, 0.0);
+    const auto labels = count_labels(svg);
+    REQUIRE(labels.size() == 72);
+    for (std::size_t i = 0; i < labels.size(); ++i)
+        for (std::size_t j = i + 1; j < labels.size(); ++j) {
+            INFO(labels[i].first << " " << labels[j].first);
+            CHECK(std::abs(labels[i].first - labels[j].first) >=
+                  0.5 * (labels[i].second + labels[j].second) - 1e-9);
+        }
+}
+
+TEST_CASE("report.html: names, per-region volumes and sizes, stages, a cross-section",
+          "[pipeline][report]") {
+    // Two regions; the mid-height plane z = 1.5 cuts the middle layer of cells (region 1).
+    const core::TetMesh mesh = fixtures::cube_tet_mesh(3, 1.0, true);
+    const std::string section = pipeline::svg_cross_section(mesh, {{1, "Left & part"}});
+    // The cut tets cover the cube's section: their polygons fill its bounding box.
+    const auto [area, box] = section_areas(section);
+    CHECK(area == Approx(box).epsilon(1e-3));
+    CHECK_THAT(section, Catch::Contains("data-label=\"1\"") && Catch::Contains("Left &amp; part") &&
+                            Catch::Contains("z = 1.50 mm"));
+
+    pipeline::ReportContext context;
+    context.title = "cube";
+    context.region_names = {{1, "Left"}, {2, "Right"}};
+    const auto h = pipeline::quality_histograms(mesh);
+    context.voxel_volume_mm3 = {{1, h.regions.at(1).volume_mm3 * 1.1}, {2, 0.0}};
+    context.stages = {{"tetra", false, 1.5, 100.0, {{"tetra.stretching", "1.15"}}},
+                      {"refine", true, 2.5, 120.0, {{"refine.passes", "3"}}}};
+    const std::string dir = fixtures::temp_dir("quality_report_context");
+    pipeline::write_quality_report(dir, mesh, nullptr, context, nullptr);
+    const std::string html = frontmesh::testing::slurp(dir + "/report.html");
+    CHECK_THAT(html, Catch::Contains("<td class=\"text\">Left</td>") &&
+                         Catch::Contains("<td class=\"text\">Right</td>") &&
+                         Catch::Contains("-9.09%") &&  // 1 / 1.1 - 1
+                         Catch::Contains("stretching&nbsp;=&nbsp;1.15") &&
+                         Catch::Contains("reused") && Catch::Contains("Cross-section") &&
+                         Catch::Contains("edge mean"));
+    // Edge lengths of the unit cube's tets: 1, sqrt 2 and sqrt 3.
+    // The smallest-angle chart marks only the small angles (below 20 degrees).
+    const std::string min_svg = frontmesh::testing::slurp(dir + "/min_dihedral.svg");
+    CHECK(count_labels(min_svg).size() <= 2 * 4);
+    CHECK(h.edges.min_mm == Approx(1.0));
+    CHECK(h.edges.max_mm == Approx(std::sqrt(3.0)));
+    CHECK(h.regions.at(1).volume_mm3 + h.regions.at(2).volume_mm3 == Approx(27.0));
+}
+
+TEST_CASE("report.html renders in a real browser", "[pipeline][report]") {
+    if (std::system("command -v chromium > /dev/null 2>&1") != 0)
+        FM_SKIP("chromium is not installed (scripts/install-deps.sh installs it)");
+    const std::string dir = fixtures::temp_dir("quality_report_browser");
+    pipeline::ReportContext context;
+    context.region_names = {{1, "Lower"}, {2, "Upper"}};
+    pipeline::write_quality_report(dir, fixtures::cube_tet_mesh(3, 1.0, true), nullptr, context,
+                                   nullptr);
+    const std::string png = dir + "/report.png";
+    const std::string cmd = "bash '" + std::string(FRONTMESH_SOURCE_DIR) +
+                            "/scripts/report-screenshot.sh' '" + dir + "/report.html' '" + png +
+                            "' 1200x1600 > /dev/null 2>&1";
+    REQUIRE(std::system(cmd.c_str()) == 0);
+    // A PNG of the page: its signature, and more than a blank page's few bytes.
+    const std::string bytes = frontmesh::testing::slurp(png);
+    CHECK(bytes.compare(1, 3, "PNG") == 0);
+    CHECK(bytes.size() > 20000);
 }

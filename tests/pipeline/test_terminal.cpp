@@ -1,0 +1,71 @@
+// What a run shows on a terminal (issue 22, item 10): progress with elapsed time and time
+// left, long lines broken at word boundaries.
+
+#include <sstream>
+#include <string>
+
+#include <catch2/catch.hpp>
+
+#include "pipeline/terminal.h"
+
+using namespace frontmesh::pipeline;
+
+namespace {
+std::size_t longest_line(const std::string& text) {
+    std::istringstream in(text);
+    std::size_t n = 0;
+    for (std::string line; std::getline(in, line);) n = std::max(n, line.size());
+    return n;
+}
+}  // namespace
+
+TEST_CASE("wrap_words breaks long lines at spaces only", "[pipeline][terminal]") {
+    const std::string text =
+        "tetra done in 2.31 s, peak memory 118 MB: 5123 nodes, 24020 tets, 3 regions, valid, "
+        "volume 4188.79 mm^3 (relative error 1.2e-15), skewness mean 0.2315 max 0.8123, "
+        "min dihedral 12.34 deg";
+    const std::string wrapped = wrap_words(text, 60, 4);
+    CHECK(longest_line(wrapped) <= 60);
+    // Nothing lost, nothing cut inside a word.
+    std::istringstream a(text), b(wrapped);
+    std::string wa, wb;
+    while (a >> wa) {
+        REQUIRE(b >> wb);
+        CHECK(wa == wb);
+    }
+    CHECK_FALSE(b >> wb);
+    CHECK(wrapped.find("\n    ") != std::string::npos);  // continuation indented
+    CHECK(wrap_words("short line", 60, 4) == "short line");
+    // A word longer than the width stays whole.
+    const std::string path(80, 'x');
+    CHECK(wrap_words("wrote " + path, 40, 2) == "wrote\n  " + path);
+}
+
+TEST_CASE("progress line: elapsed time, time left, never wider than the terminal",
+          "[pipeline][terminal]") {
+    const std::string early = progress_line("tetra", 0.01, "region 3", 0.5, 100);
+    CHECK_THAT(early, Catch::Contains("tetra") && Catch::Contains("1%") &&
+                          Catch::Contains("0.5 s") && Catch::Contains("region 3"));
+    CHECK_THAT(early, !Catch::Contains("left"));  // too early to estimate
+    const std::string half = progress_line("tetra", 0.5, "region 3", 20.0, 100);
+    CHECK_THAT(half, Catch::Contains("50%") && Catch::Contains("20 s") &&
+                         Catch::Contains("about 20 s left"));
+    CHECK(progress_line("refine", 0.25, std::string(300, 'w'), 75.0, 50).size() < 50);
+    CHECK_THAT(progress_line("refine", 0.25, "", 75.0, 100),
+               Catch::Contains("1:15") && Catch::Contains("about 3:45 left"));
+    CHECK(duration_text(3723.0) == "1:02:03");
+    CHECK(duration_text(4.25) == "4.2 s");
+}
+
+TEST_CASE("lines that only count zeros are recognised", "[pipeline][terminal]") {
+    CHECK(lists_only_zeros("repair: filled 0 holes with 0 faces"));
+    CHECK(lists_only_zeros(
+        "repair: merged 0 points, dropped 0 collapsed, 0 zero-area (0 neighbours split), 0 "
+        "duplicate and 0 cancelling faces, 0 unused points"));
+    CHECK(lists_only_zeros("refine: 0.0 mm moved, 0 flips"));
+    CHECK_FALSE(lists_only_zeros("repair: flipped 0 faces to face outward (3 pieces)"));
+    CHECK_FALSE(lists_only_zeros("repair: no self-intersections"));  // no number: it says something
+    CHECK_FALSE(lists_only_zeros("[1/5] extract"));
+    CHECK_FALSE(lists_only_zeros("extract: 3D surface nets, 0.5 relaxation"));
+    CHECK_FALSE(lists_only_zeros("remesh: 0 faces, 10 vertices"));
+}
