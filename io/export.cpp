@@ -213,7 +213,7 @@ std::string export_file_name(MeshFormat format, const std::string& stem) {
 }
 
 void write_mesh(const core::TetMesh& mesh, const std::string& path, MeshFormat format,
-                const LabelTable& names, const FieldStrings& fields) {
+                const LabelTable& names, const FieldStrings& fields, const WriteOptions& options) {
     FM_CHECK(mesh.tet_count() > 0);
     FM_CHECK(mesh.region.size() == mesh.tet_count());
     FM_CHECK(mesh.region_in.size() == mesh.face_count() &&
@@ -229,7 +229,7 @@ void write_mesh(const core::TetMesh& mesh, const std::string& path, MeshFormat f
             return;
         }
         case MeshFormat::Msh41:
-            detail::write_msh41(mesh, path, names);
+            detail::write_msh41(mesh, path, names, options.binary);
             return;
         case MeshFormat::Msh22:
             detail::write_msh22(mesh, path, names);

@@ -72,14 +72,25 @@ const std::vector<std::string>& format_names();
 /// "<stem>.inp", "<stem>.feb".
 std::string export_file_name(MeshFormat format, const std::string& stem = "mesh");
 
+/// How write_mesh writes.
+struct WriteOptions {
+    /// Binary where the format has it: MSH 4.1 (binary mode: 32 B per node and 40 B per
+    /// tet, exact doubles, read without parsing). VTU is always binary (appended raw,
+    /// zlib); MSH 2.2, MEDIT, Abaqus and FEBio are always text.
+    bool binary = false;
+};
+
 /// Writes `mesh` to `path` in `format`, atomically (temp file + rename). `names` names the
 /// regions; `fields` are extra strings for VTU field data (the label names are added there
 /// as "region_names", one "ID NAME" per line). ASCII for every format but VTU (binary, zlib,
-/// via write_tet_mesh_vtu: cell arrays region, skewness, min_dihedral).
+/// via write_tet_mesh_vtu: cell arrays region, skewness, min_dihedral) and, with
+/// `options.binary`, MSH 4.1. Gmsh nodes belong to the entity Gmsh would give them: a node
+/// on a boundary or interface to a surface entity, an interior node to its region's volume.
 /// Cost: O(nodes + tets) time; the text formats take about 60 B per node and 50 B per tet.
 /// Throws IoError naming `path` on failure, InternalError for a mesh without tets.
 void write_mesh(const core::TetMesh& mesh, const std::string& path, MeshFormat format,
-                const LabelTable& names = {}, const FieldStrings& fields = {});
+                const LabelTable& names = {}, const FieldStrings& fields = {},
+                const WriteOptions& options = {});
 
 /// What read_mesh found besides the mesh.
 struct MeshReadInfo {

@@ -40,6 +40,12 @@ public:
     /// For fixed-width readers such as Abaqus / CalculiX (20 characters per field: at least
     /// 13 significant digits for any finite double, a relative error below 5e-13).
     TextOut& real_within(double v, int max_chars);
+    /// `n` raw bytes (binary file sections).
+    TextOut& bytes(const void* p, std::size_t n) {
+        buf_.append(static_cast<const char*>(p), n);
+        if (buf_.size() > kFlushAt) flush();
+        return *this;
+    }
     /// Flushes and closes; throws IoError naming the file when a write failed.
     void close();
 
@@ -104,7 +110,9 @@ struct FaceSides {
 };
 std::vector<FaceSides> face_tets(const core::TetMesh& mesh);
 
-void write_msh41(const core::TetMesh& mesh, const std::string& path, const LabelTable& names);
+/// MSH 4.1, ASCII or (`binary`) binary.
+void write_msh41(const core::TetMesh& mesh, const std::string& path, const LabelTable& names,
+                 bool binary);
 void write_msh22(const core::TetMesh& mesh, const std::string& path, const LabelTable& names);
 void write_medit(const core::TetMesh& mesh, const std::string& path, const LabelTable& names);
 void write_abaqus(const core::TetMesh& mesh, const std::string& path, const LabelTable& names);

@@ -727,6 +727,7 @@ std::string Run::write_results() {
 std::string Run::results_key() const {
     Hash h;
     h.add(hashes_[last_]);
+    h.add(recipe_.output.binary ? "binary" : "text");
     for (const auto& [label, name] : names_.names()) {
         h.add(std::to_string(label));
         h.add(name);
@@ -754,7 +755,7 @@ void Run::write_exports(const fs::path& result, const fs::path& last_checkpoint,
     const io::FieldStrings fields = {
         {"frame", frame_}, {"stage", stages_[last_].name}, {"frontmesh_version", version()}};
     for (const auto& [file, format] : exports) {
-        io::write_mesh(mesh, file.string(), format, names_, fields);
+        io::write_mesh(mesh, file.string(), format, names_, fields, {recipe_.output.binary});
         committed(file);
         info("wrote " + file.string());
     }
