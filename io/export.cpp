@@ -151,6 +151,16 @@ std::string surface_tags_text(const LabelTable& names, const core::TetMesh& mesh
     return s;
 }
 
+/// The colour of every label of the tets (and of region_in when `faces`): the table's, else
+/// the default palette.
+LabelColours label_colours(const core::TetMesh& mesh, const LabelTable& names, bool faces) {
+    LabelColours colours;
+    for (core::Label l : mesh.region) colours.emplace(l, names.colour(l));
+    if (faces)
+        for (core::Label l : mesh.region_in) colours.emplace(l, names.colour(l));
+    return colours;
+}
+
 }  // namespace
 
 std::int64_t surface_tag(core::Label a, core::Label b) {
@@ -225,7 +235,8 @@ void write_mesh(const core::TetMesh& mesh, const std::string& path, MeshFormat f
                 f["region_names"] = region_names_text(names, mesh);
                 f["surface_tags"] = surface_tags_text(names, mesh);
             }
-            write_tet_mesh_vtu(mesh, path, f);
+            const LabelColours colours = label_colours(mesh, names, false);
+            write_tet_mesh_vtu(mesh, path, f, nullptr, &colours);
             return;
         }
         case MeshFormat::Msh41:
@@ -244,6 +255,22 @@ void write_mesh(const core::TetMesh& mesh, const std::string& path, MeshFormat f
             detail::write_febio(mesh, path, names);
             return;
     }
+}
+
+std::string surface_file_name(const std::string& stem) { return stem + "_surface.vtp"; }
+
+void write_mesh_surface(const core::TetMesh& mesh, const std::string& path, const LabelTable& names,
+                        const FieldStrings& fields) {
+    FM_CHECK(mesh.region_in.size() == mesh.face_count() &&
+             mesh.region_out.size() == mesh.face_count());
+    std::vector<std::int64_t> tags(mesh.face_count());
+    for (std::size_t f = 0; f < mesh.face_count(); ++f)
+        tags[f] = surface_tag(mesh.region_in[f], mesh.region_out[f]);
+    FieldStrings f = fields;
+    f["region_names"] = region_names_text(names, mesh);
+    f["surface_tags"] = surface_tags_text(names, mesh);
+    const LabelColours colours = label_colours(mesh, names, true);
+    write_surface_vtp(mesh, tags, path, f, &colours);
 }
 
 core::TetMesh read_mesh(const std::string& path, LabelTable* names, MeshReadInfo* info,

@@ -83,7 +83,8 @@ struct WriteOptions {
 /// Writes `mesh` to `path` in `format`, atomically (temp file + rename). `names` names the
 /// regions; `fields` are extra strings for VTU field data (the label names are added there
 /// as "region_names", one "ID NAME" per line). ASCII for every format but VTU (binary, zlib,
-/// via write_tet_mesh_vtu: cell arrays region, skewness, min_dihedral) and, with
+/// via write_tet_mesh_vtu: cell arrays region, skewness, min_dihedral, and colour with the
+/// field arrays label_ids / label_colours from `names` or io::default_colour) and, with
 /// `options.binary`, MSH 4.1. Gmsh nodes belong to the entity Gmsh would give them: a node
 /// on a boundary or interface to a surface entity, an interior node to its region's volume.
 /// Cost: O(nodes + tets) time; the text formats take about 60 B per node and 50 B per tet.
@@ -91,6 +92,19 @@ struct WriteOptions {
 void write_mesh(const core::TetMesh& mesh, const std::string& path, MeshFormat format,
                 const LabelTable& names = {}, const FieldStrings& fields = {},
                 const WriteOptions& options = {});
+
+/// The file of write_mesh_surface beside "<stem>.vtu": "<stem>_surface.vtp".
+std::string surface_file_name(const std::string& stem = "mesh");
+
+/// Writes the boundary and interface triangles of `mesh` (mesh.faces) as a VTK PolyData
+/// file for ParaView (io::write_surface_vtp), atomically: cell arrays `tag` (surface_tag of
+/// the face's two labels: README "Tag numbers"), `region_in`, `region_out`, `colour` (of
+/// region_in); point array `node` (index in the TetMesh / mesh.vtu); field data as text
+/// (vtkStringArray, a value per line): `fields`, "region_names" ("ID NAME" per region) and
+/// "surface_tags" ("TAG NAME" per surface), plus `label_ids` / `label_colours` (the label
+/// table's colours, else io::default_colour). Throws IoError naming `path` on failure.
+void write_mesh_surface(const core::TetMesh& mesh, const std::string& path,
+                        const LabelTable& names = {}, const FieldStrings& fields = {});
 
 /// What read_mesh found besides the mesh.
 struct MeshReadInfo {

@@ -529,6 +529,89 @@ TEST_CASE("meshio reads the msh, mesh, inp and vtu exports", "[io][export][meshi
                                       std::to_string(mesh.tet_count()) + " [1, 2, 7]"));
 }
 
+TEST_CASE("ParaView files: region colours in the VTU, mesh_surface.vtp with tags and text",
+          "[io][export][vtu]") {
+    if (run("/usr/bin/python3 -c 'import vtk'").exit_code != 0) {
+        FM_SKIP("python3-vtk not installed");
+    }
+    const core::TetMesh mesh = three_region_cube();
+    io::LabelTable names = names_for_cube();
+    names.set_colour(2, {250, 250, 250});  // from the table; 1 and 7 take the palette
+    const std::string dir = fixtures::temp_dir("export_paraview");
+    const std::string vtu = dir + "/mesh.vtu", vtp = dir + "/" + io::surface_file_name();
+    CHECK(io::surface_file_name() == "mesh_surface.vtp");
+    const io::FieldStrings fields = {{"frame", "lps"}, {"frontmesh_version", "9.9"}};
+    io::write_mesh(mesh, vtu, io::MeshFormat::Vtu, names, fields);
+    io::write_mesh_surface(mesh, vtp, names, fields);
+    const std::string py = R"PY(
+import sys, vtk
+def read(reader, f):
+    r = reader(); r.SetFileName(f); r.Update(); return r.GetOutput()
+def colour(a, i):
+    return tuple(int(a.GetComponent(i, k)) for k in range(3))
+g = read(vtk.vtkXMLUnstructuredGridReader, sys.argv[1])
+c, region = g.GetCellData().GetArray('colour'), g.GetCellData().GetArray('region')
+print('vtu colours', sorted({(int(region.GetValue(i)),) + colour(c, i)
+                             for i in range(g.GetNumberOfCells())}))
+ids, table = g.GetFieldData().GetArray('label_ids'), g.GetFieldData().GetArray('label_colours')
+print('vtu table', [(int(ids.GetValue(i)),) + colour(table, i)
+                    for i in range(ids.GetNumberOfTuples())])
+s = read(vtk.vtkXMLPolyDataReader, sys.argv[2])
+cd = s.GetCellData()
+tag, rin, rout = (cd.GetArray(n) for n in ('tag', 'region_in', 'region_out'))
+node = s.GetPointData().GetArray('node')
+print('vtp triangles', s.GetNumberOfCells(), 'points', s.GetNumberOfPoints())
+bad = 0
+for i in range(s.GetNumberOfCells()):
+    a, b = sorted((int(rin.GetValue(i)), int(rout.GetValue(i))))
+    bad += int(tag.GetValue(i)) != a * 100000 + b
+    ids_ = s.GetCell(i).GetPointIds()
+    p = [g.GetPoint(int(node.GetValue(ids_.GetId(k)))) for k in range(3)]
+    q = [s.GetPoint(ids_.GetId(k)) for k in range(3)]
+    bad += p != q
+print('vtp bad', bad)
+fd = s.GetFieldData()
+for n in ('frame', 'frontmesh_version', 'region_names', 'surface_tags'):
+    a = fd.GetAbstractArray(n)
+    print('text', n, a.GetClassName(), [a.GetValue(i) for i in range(a.GetNumberOfValues())])
+)PY";
+    std::ofstream(dir + "/check.py") << py;
+    const Run r = run("/usr/bin/python3 '" + dir + "/check.py' '" + vtu + "' '" + vtp + "'");
+    INFO(r.out);
+    REQUIRE(r.exit_code == 0);
+    const auto [r1, g1, b1] = io::default_colour(1);
+    const auto [r7, g7, b7] = io::default_colour(7);
+    const std::string c1 =
+        std::to_string(r1) + ", " + std::to_string(g1) + ", " + std::to_string(b1);
+    const std::string c7 =
+        std::to_string(r7) + ", " + std::to_string(g7) + ", " + std::to_string(b7);
+    CHECK_THAT(r.out, Catch::Contains("vtu colours [(1, " + c1 + "), (2, 250, 250, 250), (7, " +
+                                      c7 + ")]\n"));
+    CHECK_THAT(r.out, Catch::Contains("vtu table [(1, " + c1 + "), (2, 250, 250, 250), (7, " + c7 +
+                                      ")]\n"));
+    CHECK_THAT(r.out,
+               Catch::Contains("vtp triangles " + std::to_string(mesh.face_count()) + " points "));
+    CHECK_THAT(r.out, Catch::Contains("vtp bad 0\n"));
+    CHECK_THAT(r.out, Catch::Contains("text frame vtkStringArray ['lps']\n"));
+    CHECK_THAT(r.out, Catch::Contains("text frontmesh_version vtkStringArray ['9.9']\n"));
+    CHECK_THAT(r.out, Catch::Contains("text region_names vtkStringArray ['1 Grey matter', "
+                                      "'2 White-matter (WM)', '7 CSF']\n"));
+    CHECK_THAT(r.out, Catch::Contains("'100002 interface_Grey_matter_White_matter_WM'"));
+    // meshio still reads the VTU (its text stays a char array: meshio rejects VTK strings).
+    if (have_meshio()) {
+        const Run m =
+            run("/usr/bin/python3 -c \"import meshio, sys; m = meshio.read(sys.argv[1]); "
+                "print(len(m.points), len(m.cells_dict['tetra']), "
+                "m.cell_data['colour'][0].shape)\" '" +
+                vtu + "'");
+        INFO(m.out);
+        CHECK(m.exit_code == 0);
+        CHECK_THAT(m.out, Catch::Contains(std::to_string(mesh.node_count()) + " " +
+                                          std::to_string(mesh.tet_count()) + " (" +
+                                          std::to_string(mesh.tet_count()) + ", 3)"));
+    }
+}
+
 TEST_CASE("FEBio export: parts, domains, placeholder materials and surfaces",
           "[io][export][febio]") {
     if (run("/usr/bin/python3 -c 'import xml.etree.ElementTree'").exit_code != 0) {
