@@ -75,8 +75,8 @@ std::string export_file_name(MeshFormat format, const std::string& stem = "mesh"
 /// How write_mesh writes.
 struct WriteOptions {
     /// Binary where the format has it: MSH 4.1 (binary mode: 32 B per node and 40 B per
-    /// tet, exact doubles, read without parsing). VTU is always binary (appended raw,
-    /// zlib); MSH 2.2, MEDIT, Abaqus and FEBio are always text.
+    /// tet, about the size of the text, exact doubles, read without parsing). VTU is always
+    /// binary (appended raw, zlib); MSH 2.2, MEDIT, Abaqus and FEBio are always text.
     bool binary = false;
 };
 
