@@ -3,8 +3,10 @@
 #include <algorithm>
 #include <cctype>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <sstream>
 #include <unordered_map>
@@ -430,7 +432,36 @@ long long Tokens::integer(const char* what) {
     return v;
 }
 
+long long Tokens::integer(const char* what, int bytes) {
+    if (!binary_) return integer(what);
+    FM_CHECK(bytes == 4 || bytes == 8);
+    if (pos_ + static_cast<std::size_t>(bytes) > text_.size())
+        fail(std::string("file ends where ") + what + " was expected");
+    long long v = 0;
+    if (bytes == 4) {
+        std::int32_t i = 0;
+        std::memcpy(&i, text_.data() + pos_, sizeof i);
+        v = i;
+    } else {
+        std::uint64_t u = 0;
+        std::memcpy(&u, text_.data() + pos_, sizeof u);
+        if (u > static_cast<std::uint64_t>(std::numeric_limits<long long>::max()))
+            fail(std::string(what) + " out of range");
+        v = static_cast<long long>(u);
+    }
+    pos_ += static_cast<std::size_t>(bytes);
+    return v;
+}
+
 double Tokens::real(const char* what) {
+    if (binary_) {
+        double v = 0;
+        if (pos_ + sizeof v > text_.size())
+            fail(std::string("file ends where ") + what + " was expected");
+        std::memcpy(&v, text_.data() + pos_, sizeof v);
+        pos_ += sizeof v;
+        return v;
+    }
     const std::string_view w = word(what);
     double v = 0;
     const char* first = w.data() + (!w.empty() && w[0] == '+' ? 1 : 0);

@@ -116,7 +116,8 @@ struct MeshReadInfo {
     FieldStrings fields;                ///< VTU field-data strings
 };
 
-/// Reads a tetrahedral mesh: .vtu (io::read_tet_mesh), .msh (Gmsh 4.1 or 2.2, ASCII),
+/// Reads a tetrahedral mesh: .vtu (io::read_tet_mesh), .msh (Gmsh 4.1 ASCII or binary
+/// with 8-byte size_t in this machine's byte order, 2.2 ASCII),
 /// .mesh (MEDIT, ASCII), .inp (Abaqus C3D4 with *ELSET regions). Regions: Gmsh physical tag
 /// (else elementary tag), MEDIT reference, Abaqus element sets (the id in a "region_<id>"
 /// name or a "** region <id> <set>" comment written by write_mesh, else 1, 2, ... in file
@@ -125,7 +126,8 @@ struct MeshReadInfo {
 /// region of the tet on the side opposite the normal), plus every such face the file lacks
 /// (core::derive_boundary_faces). Region names found in the file go to `names`.
 /// Throws InputError naming the file (and line where known) on bad or unsupported input
-/// (binary .msh/.mesh, other element types are skipped; a file without tets is an error).
+/// (binary MSH 2.2 and binary .mesh; other element types are skipped; a file without tets
+/// is an error).
 /// With `keep_orientation` tets keep the file's node order even when their volume is
 /// negative (for checking a mesh as it is).
 core::TetMesh read_mesh(const std::string& path, LabelTable* names = nullptr,

@@ -127,6 +127,12 @@ public:
     std::string_view word(const char* what);  ///< next token; throws at the end
     long long integer(const char* what);
     double real(const char* what);
+    /// Binary sections (Gmsh MSH 4.1 binary mode): after set_binary(true), real() reads a
+    /// native float64 and integer(what, bytes) a native int32 (bytes = 4) or uint64
+    /// (bytes = 8) at the current position, without skipping whitespace; in text mode
+    /// integer(what, bytes) is integer(what).
+    void set_binary(bool on) { binary_ = on; }
+    long long integer(const char* what, int bytes);
     std::string_view rest_of_line();  ///< up to the end of the current line
     void skip_line();
     [[noreturn]] void fail(const std::string& message) const;  ///< InputError "file:line: ..."
@@ -137,6 +143,7 @@ private:
     void skip_space();
     std::string path_, text_;
     std::size_t pos_ = 0;
+    bool binary_ = false;
 };
 
 /// A mesh as read from a file, before orientation and faces are settled.

@@ -326,13 +326,26 @@ RawMesh read_msh(const std::string& path) {
     if (in.word("$MeshFormat") != "$MeshFormat") in.fail("not a Gmsh .msh file (no $MeshFormat)");
     const std::string version(in.word("the format version"));
     const long long file_type = in.integer("the file type");
-    in.integer("the data size");
-    if (in.word("$EndMeshFormat") != "$EndMeshFormat") in.fail("expected $EndMeshFormat");
-    if (file_type != 0)
-        in.fail(
-            "binary .msh files are not supported; save it as ASCII (gmsh FILE -0 -save -o "
-            "out.msh)");
+    const long long data_size = in.integer("the data size");
     const bool v4 = version == "4.1";
+    const bool binary = file_type != 0;
+    if (binary) {
+        // Binary MSH 4.1: the int 1 in the writer's byte order, then the sections with
+        // binary data between their text markers.
+        if (!v4)
+            in.fail("binary MSH " + version +
+                    " files are not supported (binary 4.1 and ASCII are; gmsh FILE -0 -save -o "
+                    "out.msh saves it as ASCII)");
+        if (data_size != 8)
+            in.fail("binary .msh with data size " + std::to_string(data_size) +
+                    " is not supported (8 is)");
+        in.skip_line();
+        in.set_binary(true);
+        const long long one = in.integer("the byte-order mark", 4);
+        in.set_binary(false);
+        if (one != 1) in.fail("binary .msh written with another byte order");
+    }
+    if (in.word("$EndMeshFormat") != "$EndMeshFormat") in.fail("expected $EndMeshFormat");
     if (!v4 && version.rfind("2.", 0) != 0)
         in.fail("MSH version " + version + " is not supported (4.1 and 2.x are)");
     raw.format = v4 ? "msh 4.1" : "msh " + version;
@@ -356,6 +369,12 @@ RawMesh read_msh(const std::string& path) {
             tris.push_back({tag, {v[0], v[1], v[2], 0}, region});
     };
 
+    // The data of a binary section starts after the line break that ends its $Name.
+    auto start_data = [&] {
+        if (!binary) return;
+        in.skip_line();
+        in.set_binary(true);
+    };
     while (!in.at_end()) {
         const std::string section(in.word("a section"));
         if (section.empty() || section[0] != '$')
@@ -372,44 +391,48 @@ RawMesh read_msh(const std::string& path) {
                 physical_names[{dim, tag}] = name;
             }
         } else if (section == "$Entities" && v4) {
+            start_data();
             long long count[4];
-            for (auto& c : count) c = in.integer("an entity count");
+            for (auto& c : count) c = in.integer("an entity count", 8);
             for (int dim = 0; dim < 4; ++dim)
                 for (long long i = 0; i < count[dim]; ++i) {
-                    const long long tag = in.integer("an entity tag");
+                    const long long tag = in.integer("an entity tag", 4);
                     for (int k = 0; k < (dim == 0 ? 3 : 6); ++k)
                         in.real("a bounding box coordinate");
-                    const long long np = in.integer("the number of physical tags");
+                    const long long np = in.integer("the number of physical tags", 8);
                     for (long long k = 0; k < np; ++k) {
-                        const long long p = in.integer("a physical tag");
+                        const long long p = in.integer("a physical tag", 4);
                         if (k == 0) entity_physical[{dim, tag}] = p;
                     }
                     if (dim > 0) {
-                        const long long nb = in.integer("the number of bounding entities");
-                        for (long long k = 0; k < nb; ++k) in.integer("a bounding entity");
+                        const long long nb = in.integer("the number of bounding entities", 8);
+                        for (long long k = 0; k < nb; ++k) in.integer("a bounding entity", 4);
                     }
                 }
+            in.set_binary(false);
         } else if (section == "$Nodes") {
             if (v4) {
-                const long long blocks = in.integer("the number of node blocks");
-                const long long total = in.integer("the number of nodes");
-                in.integer("the smallest node tag");
-                in.integer("the largest node tag");
+                start_data();
+                const long long blocks = in.integer("the number of node blocks", 8);
+                const long long total = in.integer("the number of nodes", 8);
+                in.integer("the smallest node tag", 8);
+                in.integer("the largest node tag", 8);
                 nodes.reserve(static_cast<std::size_t>(std::max(0LL, total)));
                 for (long long b = 0; b < blocks; ++b) {
-                    in.integer("an entity dimension");
-                    in.integer("an entity tag");
-                    const long long parametric = in.integer("the parametric flag");
-                    const long long n = in.integer("the number of nodes in the block");
+                    in.integer("an entity dimension", 4);
+                    in.integer("an entity tag", 4);
+                    const long long parametric = in.integer("the parametric flag", 4);
+                    const long long n = in.integer("the number of nodes in the block", 8);
+                    if (parametric) in.fail("parametric node coordinates are not supported");
                     const std::size_t first = nodes.size();
                     for (long long i = 0; i < n; ++i)
-                        nodes.push_back({in.integer("a node tag"), {}});
+                        nodes.push_back({in.integer("a node tag", 8), {}});
                     for (long long i = 0; i < n; ++i) {
                         auto& p = nodes[first + static_cast<std::size_t>(i)].second;
                         for (double& c : p) c = in.real("a node coordinate");
-                        if (parametric) in.fail("parametric node coordinates are not supported");
                     }
                 }
+                in.set_binary(false);
             } else {
                 const long long n = in.integer("the number of nodes");
                 nodes.reserve(static_cast<std::size_t>(std::max(0LL, n)));
@@ -423,26 +446,28 @@ RawMesh read_msh(const std::string& path) {
         } else if (section == "$Elements") {
             std::vector<long long> v;
             if (v4) {
-                const long long blocks = in.integer("the number of element blocks");
-                in.integer("the number of elements");
-                in.integer("the smallest element tag");
-                in.integer("the largest element tag");
+                start_data();
+                const long long blocks = in.integer("the number of element blocks", 8);
+                in.integer("the number of elements", 8);
+                in.integer("the smallest element tag", 8);
+                in.integer("the largest element tag", 8);
                 for (long long b = 0; b < blocks; ++b) {
-                    const int dim = static_cast<int>(in.integer("an entity dimension"));
-                    const long long entity = in.integer("an entity tag");
-                    const long long type = in.integer("an element type");
-                    const long long n = in.integer("the number of elements in the block");
+                    const int dim = static_cast<int>(in.integer("an entity dimension", 4));
+                    const long long entity = in.integer("an entity tag", 4);
+                    const long long type = in.integer("an element type", 4);
+                    const long long n = in.integer("the number of elements in the block", 8);
                     const int nn = gmsh_nodes_per_element(type);
                     if (nn == 0) in.fail("unknown element type " + std::to_string(type));
                     const auto it = entity_physical.find({dim, entity});
                     const long long region = it != entity_physical.end() ? it->second : entity;
                     v.resize(static_cast<std::size_t>(nn));
                     for (long long i = 0; i < n; ++i) {
-                        const long long tag = in.integer("an element tag");
-                        for (auto& x : v) x = in.integer("a node tag");
+                        const long long tag = in.integer("an element tag", 8);
+                        for (auto& x : v) x = in.integer("a node tag", 8);
                         add_element(static_cast<int>(type), tag, region, v);
                     }
                 }
+                in.set_binary(false);
             } else {
                 const long long n = in.integer("the number of elements");
                 for (long long i = 0; i < n; ++i) {

@@ -370,6 +370,21 @@ TEST_CASE("MSH 4.1: each node in the entity Gmsh gives it, binary reads the same
         CHECK(per_volume.count(7) == 0);
     };
     check_entities(msh41_node_entities(ascii));
+    // Our reader reads the binary file to the mesh of the ASCII one.
+    io::LabelTable names_ascii, names_binary;
+    const core::TetMesh from_text = io::read_mesh(ascii, &names_ascii);
+    const core::TetMesh from_bytes = io::read_mesh(binary, &names_binary);
+    CHECK(from_bytes.xyz == from_text.xyz);
+    CHECK(from_bytes.tets == from_text.tets);
+    CHECK(from_bytes.region == from_text.region);
+    CHECK(from_bytes.faces == from_text.faces);
+    CHECK(from_bytes.region_in == from_text.region_in);
+    CHECK(from_text.xyz == mesh.xyz);
+    CHECK(names_binary.names() == names_ascii.names());
+    // A cut binary file is an InputError naming it, not a crash.
+    const std::string cut = dir + "/cut.msh";
+    std::ofstream(cut, std::ios::binary) << slurp(binary).substr(0, slurp(binary).size() / 2);
+    CHECK_THROWS_AS(io::read_mesh(cut), core::InputError);
     if (!have("gmsh")) {
         FM_SKIP("gmsh not installed (scripts/install-deps.sh installs it)");
     }

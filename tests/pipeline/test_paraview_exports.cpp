@@ -33,9 +33,13 @@ TEST_CASE("a run writes mesh_surface.vtp and, with output.binary, a binary mesh.
     REQUIRE(fs::exists(out / "mesh_surface.vtp"));
     CHECK_THAT(slurp(out / "mesh_surface.vtp"), Catch::Contains("Name=\"tag\""));
     CHECK_THAT(slurp(out / "checkpoints" / "results.hash"), Catch::Contains("mesh_surface.vtp "));
-    // The binary file reads back as the ASCII one would (same nodes and tets).
     const core::TetMesh vtu = io::read_mesh((out / "mesh.vtu").string());
     CHECK_THAT(slurp(out / "mesh.vtu"), Catch::Contains("Name=\"colour\""));
+    const core::TetMesh binary = io::read_mesh((out / "mesh.msh").string());
+    CHECK(binary.xyz == vtu.xyz);
+    CHECK(binary.tets == vtu.tets);
+    r = run_frontmesh("check out/mesh.msh", dir);
+    CHECK(r.exit_code == 0);
 
     // Only the setting changed: mesh.msh is written again, as text.
     write_file(dir + "/r.yaml", recipe(false));
