@@ -3,8 +3,10 @@
 #include <algorithm>
 #include <cctype>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <sstream>
 #include <unordered_map>
@@ -151,6 +153,16 @@ std::string surface_tags_text(const LabelTable& names, const core::TetMesh& mesh
     return s;
 }
 
+/// The colour of every label of the tets (and of region_in when `faces`): the table's, else
+/// the default palette.
+LabelColours label_colours(const core::TetMesh& mesh, const LabelTable& names, bool faces) {
+    LabelColours colours;
+    for (core::Label l : mesh.region) colours.emplace(l, names.colour(l));
+    if (faces)
+        for (core::Label l : mesh.region_in) colours.emplace(l, names.colour(l));
+    return colours;
+}
+
 }  // namespace
 
 std::int64_t surface_tag(core::Label a, core::Label b) {
@@ -213,7 +225,7 @@ std::string export_file_name(MeshFormat format, const std::string& stem) {
 }
 
 void write_mesh(const core::TetMesh& mesh, const std::string& path, MeshFormat format,
-                const LabelTable& names, const FieldStrings& fields) {
+                const LabelTable& names, const FieldStrings& fields, const WriteOptions& options) {
     FM_CHECK(mesh.tet_count() > 0);
     FM_CHECK(mesh.region.size() == mesh.tet_count());
     FM_CHECK(mesh.region_in.size() == mesh.face_count() &&
@@ -225,11 +237,12 @@ void write_mesh(const core::TetMesh& mesh, const std::string& path, MeshFormat f
                 f["region_names"] = region_names_text(names, mesh);
                 f["surface_tags"] = surface_tags_text(names, mesh);
             }
-            write_tet_mesh_vtu(mesh, path, f);
+            const LabelColours colours = label_colours(mesh, names, false);
+            write_tet_mesh_vtu(mesh, path, f, nullptr, &colours);
             return;
         }
         case MeshFormat::Msh41:
-            detail::write_msh41(mesh, path, names);
+            detail::write_msh41(mesh, path, names, options.binary);
             return;
         case MeshFormat::Msh22:
             detail::write_msh22(mesh, path, names);
@@ -244,6 +257,22 @@ void write_mesh(const core::TetMesh& mesh, const std::string& path, MeshFormat f
             detail::write_febio(mesh, path, names);
             return;
     }
+}
+
+std::string surface_file_name(const std::string& stem) { return stem + "_surface.vtp"; }
+
+void write_mesh_surface(const core::TetMesh& mesh, const std::string& path, const LabelTable& names,
+                        const FieldStrings& fields) {
+    FM_CHECK(mesh.region_in.size() == mesh.face_count() &&
+             mesh.region_out.size() == mesh.face_count());
+    std::vector<std::int64_t> tags(mesh.face_count());
+    for (std::size_t f = 0; f < mesh.face_count(); ++f)
+        tags[f] = surface_tag(mesh.region_in[f], mesh.region_out[f]);
+    FieldStrings f = fields;
+    f["region_names"] = region_names_text(names, mesh);
+    f["surface_tags"] = surface_tags_text(names, mesh);
+    const LabelColours colours = label_colours(mesh, names, true);
+    write_surface_vtp(mesh, tags, path, f, &colours);
 }
 
 core::TetMesh read_mesh(const std::string& path, LabelTable* names, MeshReadInfo* info,
@@ -403,7 +432,36 @@ long long Tokens::integer(const char* what) {
     return v;
 }
 
+long long Tokens::integer(const char* what, int bytes) {
+    if (!binary_) return integer(what);
+    FM_CHECK(bytes == 4 || bytes == 8);
+    if (pos_ + static_cast<std::size_t>(bytes) > text_.size())
+        fail(std::string("file ends where ") + what + " was expected");
+    long long v = 0;
+    if (bytes == 4) {
+        std::int32_t i = 0;
+        std::memcpy(&i, text_.data() + pos_, sizeof i);
+        v = i;
+    } else {
+        std::uint64_t u = 0;
+        std::memcpy(&u, text_.data() + pos_, sizeof u);
+        if (u > static_cast<std::uint64_t>(std::numeric_limits<long long>::max()))
+            fail(std::string(what) + " out of range");
+        v = static_cast<long long>(u);
+    }
+    pos_ += static_cast<std::size_t>(bytes);
+    return v;
+}
+
 double Tokens::real(const char* what) {
+    if (binary_) {
+        double v = 0;
+        if (pos_ + sizeof v > text_.size())
+            fail(std::string("file ends where ") + what + " was expected");
+        std::memcpy(&v, text_.data() + pos_, sizeof v);
+        pos_ += sizeof v;
+        return v;
+    }
     const std::string_view w = word(what);
     double v = 0;
     const char* first = w.data() + (!w.empty() && w[0] == '+' ? 1 : 0);

@@ -72,14 +72,39 @@ const std::vector<std::string>& format_names();
 /// "<stem>.inp", "<stem>.feb".
 std::string export_file_name(MeshFormat format, const std::string& stem = "mesh");
 
+/// How write_mesh writes.
+struct WriteOptions {
+    /// Binary where the format has it: MSH 4.1 (binary mode: 32 B per node and 40 B per
+    /// tet, about the size of the text, exact doubles, read without parsing). VTU is always
+    /// binary (appended raw, zlib); MSH 2.2, MEDIT, Abaqus and FEBio are always text.
+    bool binary = false;
+};
+
 /// Writes `mesh` to `path` in `format`, atomically (temp file + rename). `names` names the
 /// regions; `fields` are extra strings for VTU field data (the label names are added there
 /// as "region_names", one "ID NAME" per line). ASCII for every format but VTU (binary, zlib,
-/// via write_tet_mesh_vtu: cell arrays region, skewness, min_dihedral).
+/// via write_tet_mesh_vtu: cell arrays region, skewness, min_dihedral, and colour with the
+/// field arrays label_ids / label_colours from `names` or io::default_colour) and, with
+/// `options.binary`, MSH 4.1. Gmsh nodes belong to the entity Gmsh would give them: a node
+/// on a boundary or interface to a surface entity, an interior node to its region's volume.
 /// Cost: O(nodes + tets) time; the text formats take about 60 B per node and 50 B per tet.
 /// Throws IoError naming `path` on failure, InternalError for a mesh without tets.
 void write_mesh(const core::TetMesh& mesh, const std::string& path, MeshFormat format,
-                const LabelTable& names = {}, const FieldStrings& fields = {});
+                const LabelTable& names = {}, const FieldStrings& fields = {},
+                const WriteOptions& options = {});
+
+/// The file of write_mesh_surface beside "<stem>.vtu": "<stem>_surface.vtp".
+std::string surface_file_name(const std::string& stem = "mesh");
+
+/// Writes the boundary and interface triangles of `mesh` (mesh.faces) as a VTK PolyData
+/// file for ParaView (io::write_surface_vtp), atomically: cell arrays `tag` (surface_tag of
+/// the face's two labels: README "Tag numbers"), `region_in`, `region_out`, `colour` (of
+/// region_in); point array `node` (index in the TetMesh / mesh.vtu); field data as text
+/// (vtkStringArray, a value per line): `fields`, "region_names" ("ID NAME" per region) and
+/// "surface_tags" ("TAG NAME" per surface), plus `label_ids` / `label_colours` (the label
+/// table's colours, else io::default_colour). Throws IoError naming `path` on failure.
+void write_mesh_surface(const core::TetMesh& mesh, const std::string& path,
+                        const LabelTable& names = {}, const FieldStrings& fields = {});
 
 /// What read_mesh found besides the mesh.
 struct MeshReadInfo {
@@ -91,7 +116,8 @@ struct MeshReadInfo {
     FieldStrings fields;                ///< VTU field-data strings
 };
 
-/// Reads a tetrahedral mesh: .vtu (io::read_tet_mesh), .msh (Gmsh 4.1 or 2.2, ASCII),
+/// Reads a tetrahedral mesh: .vtu (io::read_tet_mesh), .msh (Gmsh 4.1 ASCII or binary
+/// with 8-byte size_t in this machine's byte order, 2.2 ASCII),
 /// .mesh (MEDIT, ASCII), .inp (Abaqus C3D4 with *ELSET regions). Regions: Gmsh physical tag
 /// (else elementary tag), MEDIT reference, Abaqus element sets (the id in a "region_<id>"
 /// name or a "** region <id> <set>" comment written by write_mesh, else 1, 2, ... in file
@@ -100,7 +126,8 @@ struct MeshReadInfo {
 /// region of the tet on the side opposite the normal), plus every such face the file lacks
 /// (core::derive_boundary_faces). Region names found in the file go to `names`.
 /// Throws InputError naming the file (and line where known) on bad or unsupported input
-/// (binary .msh/.mesh, other element types are skipped; a file without tets is an error).
+/// (binary MSH 2.2 and binary .mesh; other element types are skipped; a file without tets
+/// is an error).
 /// With `keep_orientation` tets keep the file's node order even when their volume is
 /// negative (for checking a mesh as it is).
 core::TetMesh read_mesh(const std::string& path, LabelTable* names = nullptr,

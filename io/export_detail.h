@@ -40,6 +40,12 @@ public:
     /// For fixed-width readers such as Abaqus / CalculiX (20 characters per field: at least
     /// 13 significant digits for any finite double, a relative error below 5e-13).
     TextOut& real_within(double v, int max_chars);
+    /// `n` raw bytes (binary file sections).
+    TextOut& bytes(const void* p, std::size_t n) {
+        buf_.append(static_cast<const char*>(p), n);
+        if (buf_.size() > kFlushAt) flush();
+        return *this;
+    }
     /// Flushes and closes; throws IoError naming the file when a write failed.
     void close();
 
@@ -104,7 +110,9 @@ struct FaceSides {
 };
 std::vector<FaceSides> face_tets(const core::TetMesh& mesh);
 
-void write_msh41(const core::TetMesh& mesh, const std::string& path, const LabelTable& names);
+/// MSH 4.1, ASCII or (`binary`) binary.
+void write_msh41(const core::TetMesh& mesh, const std::string& path, const LabelTable& names,
+                 bool binary);
 void write_msh22(const core::TetMesh& mesh, const std::string& path, const LabelTable& names);
 void write_medit(const core::TetMesh& mesh, const std::string& path, const LabelTable& names);
 void write_abaqus(const core::TetMesh& mesh, const std::string& path, const LabelTable& names);
@@ -119,6 +127,12 @@ public:
     std::string_view word(const char* what);  ///< next token; throws at the end
     long long integer(const char* what);
     double real(const char* what);
+    /// Binary sections (Gmsh MSH 4.1 binary mode): after set_binary(true), real() reads a
+    /// native float64 and integer(what, bytes) a native int32 (bytes = 4) or uint64
+    /// (bytes = 8) at the current position, without skipping whitespace; in text mode
+    /// integer(what, bytes) is integer(what).
+    void set_binary(bool on) { binary_ = on; }
+    long long integer(const char* what, int bytes);
     std::string_view rest_of_line();  ///< up to the end of the current line
     void skip_line();
     [[noreturn]] void fail(const std::string& message) const;  ///< InputError "file:line: ..."
@@ -129,6 +143,7 @@ private:
     void skip_space();
     std::string path_, text_;
     std::size_t pos_ = 0;
+    bool binary_ = false;
 };
 
 /// A mesh as read from a file, before orientation and faces are settled.

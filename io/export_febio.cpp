@@ -1,8 +1,14 @@
-// FEBio .feb, format spec 4.0 (FEBio 4): Mesh (Nodes, one Elements part per region, the
-// ElementSet all_elements, a Surface per boundary and per side of an interface, a NodeSet
-// per surface, the whole outer boundary as Surface "boundary" and NodeSet
-// "boundary_NODES"), MeshDomains (a SolidDomain per part) and one placeholder material per
-// region, named after the region. Write only.
+// FEBio .feb, format spec 4.0 (FEBio 4): a complete model skeleton that FEBio reads as it
+// is and that a user completes with boundary conditions and loads. Sections in FEBio's order:
+// Module (solid, units mm-N-s), Control (one STATIC step: time_steps, step_size,
+// time_stepper, a solid solver with BFGS updates), Material (one placeholder per region,
+// units in a comment), Mesh (Nodes; one Elements part per region; the ElementSet
+// all_elements; a Surface per boundary and per side of an interface, a NodeSet per surface;
+// the whole outer boundary as Surface "boundary" and NodeSet "boundary_NODES"; a
+// SurfacePair per interface), MeshDomains (a SolidDomain per part with its material) and
+// Output (a plot file with displacement and stress). Write only.
+// Format reference: the FEBio 4 User's Manual, chapter "Free format input" (the sections
+// above; set members as comma-separated lists and "first:last" ranges).
 
 #include <algorithm>
 
@@ -11,6 +17,16 @@
 #include "pipeline/core/error.h"
 
 namespace frontmesh::io::detail {
+namespace {
+
+// Placeholder material (units mm-N-s): a soft tissue of water's density; E and v are to be
+// replaced by the user (the file says so).
+constexpr double kPlaceholderE = 0.001;       // MPa (1 kPa)
+constexpr double kPlaceholderV = 0.45;        // Poisson's ratio
+constexpr double kPlaceholderDensity = 1e-9;  // t/mm^3 (1000 kg/m^3)
+constexpr int kTimeSteps = 10;                // steps of the one static step, to time 1
+
+}  // namespace
 
 void write_febio(const core::TetMesh& mesh, const std::string& path, const LabelTable& names) {
     const auto regions = region_groups(mesh, names);
@@ -40,16 +56,42 @@ void write_febio(const core::TetMesh& mesh, const std::string& path, const Label
             << " tet4 elements in " << regions.size() << " parts (one per region), "
             << surfaces.size()
             << " surfaces (boundary_R; interface_X_Y = faces of X bordering Y, normals out\n"
-               "\t     of X, for both sides; boundary = the whole outer boundary).\n"
-               "\t     The materials are PLACEHOLDERS (neo-Hookean, E = 1, v = 0.3): set real "
-               "ones. -->\n";
-        out << "\t<Module type=\"solid\"/>\n\t<Material>\n";
+               "\t     of X, for both sides, paired in a SurfacePair for tie or contact;\n"
+               "\t     boundary = the whole outer boundary).\n"
+               "\t     Units mm-N-s: lengths in mm, forces in N, stresses in MPa, mass in t,\n"
+               "\t     density in t/mm^3. The materials are PLACEHOLDERS (neo-Hookean, E = "
+            << kPlaceholderE << " MPa,\n\t     v = " << kPlaceholderV << ", density "
+            << kPlaceholderDensity
+            << " t/mm^3 = 1000 kg/m^3): set real ones, and add\n"
+               "\t     Boundary and Loads sections (e.g. on boundary_NODES) before running. -->\n";
+        out << "\t<Module type=\"solid\">\n\t\t<units>mm-N-s</units>\n\t</Module>\n";
+        // One static step of kTimeSteps steps; FEBio's usual Newton settings (BFGS updates,
+        // displacement / energy / residual tolerances) so that the file runs once loaded.
+        out << "\t<Control>\n\t\t<analysis>STATIC</analysis>\n\t\t<time_steps>" << kTimeSteps
+            << "</time_steps>\n\t\t<step_size>" << 1.0 / kTimeSteps
+            << "</step_size>\n"
+               "\t\t<plot_level>PLOT_MAJOR_ITRS</plot_level>\n"
+               "\t\t<output_level>OUTPUT_MAJOR_ITRS</output_level>\n"
+               "\t\t<time_stepper type=\"default\">\n"
+               "\t\t\t<max_retries>5</max_retries>\n\t\t\t<opt_iter>11</opt_iter>\n"
+               "\t\t\t<dtmin>0</dtmin>\n\t\t\t<dtmax>"
+            << 1.0 / kTimeSteps
+            << "</dtmax>\n\t\t</time_stepper>\n"
+               "\t\t<solver type=\"solid\">\n"
+               "\t\t\t<max_refs>15</max_refs>\n\t\t\t<diverge_reform>1</diverge_reform>\n"
+               "\t\t\t<reform_each_time_step>1</reform_each_time_step>\n"
+               "\t\t\t<dtol>0.001</dtol>\n\t\t\t<etol>0.01</etol>\n\t\t\t<rtol>0</rtol>\n"
+               "\t\t\t<lstol>0.9</lstol>\n\t\t\t<min_residual>1e-20</min_residual>\n"
+               "\t\t\t<qn_method type=\"BFGS\">\n\t\t\t\t<max_ups>10</max_ups>\n"
+               "\t\t\t</qn_method>\n\t\t</solver>\n\t</Control>\n";
+        out << "\t<Material>\n";
         int id = 0;
         for (const auto& r : regions) {
-            out << "\t\t<material id=\"" << ++id << "\" name=\"" << r.name
-                << "\" type=\"neo-Hookean\">\n"
-                << "\t\t\t<density>1</density>\n\t\t\t<E>1</E>\n\t\t\t<v>0.3</v>\n\t\t</"
-                   "material>\n";
+            out << "\t\t<!-- region " << r.label << ": PLACEHOLDER material, units MPa and "
+                << "t/mm^3 -->\n\t\t<material id=\"" << ++id << "\" name=\"" << r.name
+                << "\" type=\"neo-Hookean\">\n\t\t\t<density>" << kPlaceholderDensity
+                << "</density>\n\t\t\t<E>" << kPlaceholderE << "</E>\n\t\t\t<v>" << kPlaceholderV
+                << "</v>\n\t\t</material>\n";
         }
         out << "\t</Material>\n\t<Mesh>\n\t\t<Nodes name=\"nodes\">\n";
         for (std::size_t v = 0; v < mesh.node_count(); ++v)
@@ -90,10 +132,21 @@ void write_febio(const core::TetMesh& mesh, const std::string& path, const Label
             write_ids(out, face_nodes(mesh, outer));
             out << "</NodeSet>\n";
         }
+        // The two sides of each interface (the smaller label's side primary), for a tied or
+        // contact interface in a Contact section: <contact type="tied-elastic"
+        // surface_pair="interface_X_Y_PAIR">.
+        for (const auto& g : surfaces) {
+            if (g.is_boundary()) continue;
+            out << "\t\t<SurfacePair name=\"" << g.name << "_PAIR\">\n\t\t\t<primary>"
+                << side_name(g, g.lo, names) << "</primary>\n\t\t\t<secondary>"
+                << side_name(g, g.hi, names) << "</secondary>\n\t\t</SurfacePair>\n";
+        }
         out << "\t</Mesh>\n\t<MeshDomains>\n";
         for (const auto& r : regions)
             out << "\t\t<SolidDomain name=\"" << r.name << "\" mat=\"" << r.name << "\"/>\n";
-        out << "\t</MeshDomains>\n</febio_spec>\n";
+        out << "\t</MeshDomains>\n\t<Output>\n\t\t<plotfile type=\"febio\">\n"
+               "\t\t\t<var type=\"displacement\"/>\n\t\t\t<var type=\"stress\"/>\n"
+               "\t\t</plotfile>\n\t</Output>\n</febio_spec>\n";
         out.close();
     });
 }

@@ -1,4 +1,4 @@
-// Gmsh MSH 4.1 and 2.2 (ASCII): writers and reader.
+// Gmsh MSH 4.1 (ASCII or binary) and 2.2 (ASCII): writers; reader of ASCII files.
 // Format reference: the Gmsh manual, section "MSH file format" (versions 4.1 and 2.2).
 
 #include <algorithm>
@@ -69,9 +69,65 @@ void write_node_xyz(TextOut& out, const core::TetMesh& mesh, std::size_t v) {
     out << mesh.xyz[3 * v] << ' ' << mesh.xyz[3 * v + 1] << ' ' << mesh.xyz[3 * v + 2];
 }
 
-/// Bounding box "minx miny minz maxx maxy maxz" of the nodes of some elements.
+/// MSH 4.1 sections in ASCII (numbers separated by spaces, a line per record) or binary
+/// (native little-endian int32 for dims, tags and types, size_t = uint64 for counts and
+/// node / element tags, float64 coordinates, no separators; Gmsh manual, "MSH file format
+/// version 4.1", binary mode).
+class MshOut {
+public:
+    MshOut(TextOut& out, bool binary) : out_(out), binary_(binary) {}
+    MshOut& size(std::uint64_t v) {
+        if (binary_) return bytes(&v, sizeof v);
+        sep();
+        out_ << static_cast<std::int64_t>(v);
+        return *this;
+    }
+    MshOut& integer(std::int64_t v) {
+        if (binary_) {
+            FM_CHECK(v >= std::numeric_limits<std::int32_t>::min() &&
+                     v <= std::numeric_limits<std::int32_t>::max());
+            const auto i = static_cast<std::int32_t>(v);
+            return bytes(&i, sizeof i);
+        }
+        sep();
+        out_ << v;
+        return *this;
+    }
+    MshOut& real(double v) {
+        if (binary_) return bytes(&v, sizeof v);
+        sep();
+        out_ << v;
+        return *this;
+    }
+    /// Ends an ASCII record (nothing in binary).
+    void end_record() {
+        if (!binary_) out_ << '\n';
+        first_ = true;
+    }
+    /// Ends a section's data: binary data is followed by a line break before $End...
+    void end_section(std::string_view end) {
+        if (binary_) out_ << '\n';
+        out_ << end << '\n';
+        first_ = true;
+    }
+
+private:
+    void sep() {
+        if (!first_) out_ << ' ';
+        first_ = false;
+    }
+    MshOut& bytes(const void* p, std::size_t n) {
+        out_.bytes(p, n);
+        return *this;
+    }
+    TextOut& out_;
+    bool binary_;
+    bool first_ = true;
+};
+
+/// Bounding box of the nodes of some elements, as six reals.
 template <class Elements>
-void write_bbox(TextOut& out, const core::TetMesh& mesh, const Elements& elements,
+void write_bbox(MshOut& out, const core::TetMesh& mesh, const Elements& elements,
                 const std::vector<std::int32_t>& ids) {
     double lo[3], hi[3];
     for (int k = 0; k < 3; ++k) {
@@ -84,12 +140,14 @@ void write_bbox(TextOut& out, const core::TetMesh& mesh, const Elements& element
                 lo[k] = std::min(lo[k], mesh.xyz[3 * static_cast<std::size_t>(v) + k]);
                 hi[k] = std::max(hi[k], mesh.xyz[3 * static_cast<std::size_t>(v) + k]);
             }
-    out << lo[0] << ' ' << lo[1] << ' ' << lo[2] << ' ' << hi[0] << ' ' << hi[1] << ' ' << hi[2];
+    for (double x : lo) out.real(x);
+    for (double x : hi) out.real(x);
 }
 
 }  // namespace
 
-void write_msh41(const core::TetMesh& mesh, const std::string& path, const LabelTable& names) {
+void write_msh41(const core::TetMesh& mesh, const std::string& path, const LabelTable& names,
+                 bool binary) {
     const auto regions = region_groups(mesh, names);
     const auto surfaces = surface_groups(mesh, names);
     check_numeric_tags(regions, surfaces, path);
@@ -108,22 +166,58 @@ void write_msh41(const core::TetMesh& mesh, const std::string& path, const Label
                 if (mesh.region_in[static_cast<std::size_t>(f)] == in) e.faces.push_back(f);
             if (!e.faces.empty()) entities.push_back(std::move(e));
         }
+    // Each node belongs to one entity, as Gmsh classifies it: the first surface entity with
+    // a face on it (a node where surfaces meet sits on their shared curve, which this file
+    // does not model: the first surface stands for it), else the volume of the first tet
+    // on it (an interior node lies in one region). Index i < entities.size() is surface
+    // entity i, entities.size() + j is region j. Each loop visits every face or tet once.
+    const std::size_t n = mesh.node_count();
+    constexpr std::size_t kNone = std::numeric_limits<std::size_t>::max();
+    std::vector<std::size_t> node_entity(n, kNone);
+    for (std::size_t i = 0; i < entities.size(); ++i)
+        for (std::int32_t f : entities[i].faces)
+            for (std::int32_t v : mesh.faces[static_cast<std::size_t>(f)])
+                if (node_entity[static_cast<std::size_t>(v)] == kNone)
+                    node_entity[static_cast<std::size_t>(v)] = i;
+    for (std::size_t j = 0; j < regions.size(); ++j)
+        for (std::int32_t t : regions[j].tets)
+            for (std::int32_t v : mesh.tets[static_cast<std::size_t>(t)])
+                if (node_entity[static_cast<std::size_t>(v)] == kNone)
+                    node_entity[static_cast<std::size_t>(v)] = entities.size() + j;
+    // The nodes of each entity, increasing (counting sort; a node in no element goes with
+    // the first region).
+    std::vector<std::vector<std::int32_t>> entity_nodes(entities.size() + regions.size());
+    for (std::size_t v = 0; v < n; ++v)
+        entity_nodes[node_entity[v] == kNone ? entities.size() : node_entity[v]].push_back(
+            static_cast<std::int32_t>(v));
+    const auto blocks = static_cast<std::size_t>(
+        std::count_if(entity_nodes.begin(), entity_nodes.end(),
+                      [](const std::vector<std::int32_t>& b) { return !b.empty(); }));
+
     write_atomically(path, [&](const std::string& temp) {
-        TextOut out(temp);
-        out << "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n";
-        write_physical_names(out, regions, surfaces);
+        TextOut text(temp);
+        MshOut out(text, binary);
+        text << "$MeshFormat\n4.1 " << (binary ? "1" : "0") << " 8\n";
+        if (binary) {
+            const std::int32_t one = 1;  // lets a reader detect the byte order
+            text.bytes(&one, sizeof one);
+            text << '\n';
+        }
+        text << "$EndMeshFormat\n";
+        write_physical_names(text, regions, surfaces);
         // One volume entity per region (entity tag = label), bounded by the surface entities
         // of its surfaces (negative tag where the entity's normal points into the volume).
         // Each entity is in one physical group: its surface's tag or its region's label.
-        out << "$Entities\n0 0 " << entities.size() << ' ' << regions.size() << '\n';
+        text << "$Entities\n";
+        out.size(0).size(0).size(entities.size()).size(regions.size()).end_record();
         for (std::size_t i = 0; i < entities.size(); ++i) {
             const auto& e = entities[i];
-            out << i + 1 << ' ';
+            out.integer(static_cast<std::int64_t>(i) + 1);
             write_bbox(out, mesh, mesh.faces, e.faces);
-            out << " 1 " << e.group->tag << " 0\n";
+            out.size(1).integer(e.group->tag).size(0).end_record();
         }
         for (const auto& r : regions) {
-            out << r.label << ' ';
+            out.integer(r.label);
             write_bbox(out, mesh, mesh.tets, r.tets);
             std::vector<std::int64_t> bounding;
             for (std::size_t i = 0; i < entities.size(); ++i) {
@@ -134,43 +228,57 @@ void write_msh41(const core::TetMesh& mesh, const std::string& path, const Label
                 else if (e.group->lo == r.label || e.group->hi == r.label)
                     bounding.push_back(-tag);
             }
-            out << " 1 " << r.label << ' ' << bounding.size();
-            for (std::int64_t b : bounding) out << ' ' << b;
-            out << '\n';
+            out.size(1).integer(r.label).size(bounding.size());
+            for (std::int64_t b : bounding) out.integer(b);
+            out.end_record();
         }
-        out << "$EndEntities\n";
-        // All nodes in one block on the first volume: node tag = index + 1.
-        const std::size_t n = mesh.node_count();
-        out << "$Nodes\n1 " << n << " 1 " << n << '\n';
-        out << "3 " << regions.front().label << " 0 " << n << '\n';
-        for (std::size_t v = 0; v < n; ++v) out << v + 1 << '\n';
-        for (std::size_t v = 0; v < n; ++v) {
-            write_node_xyz(out, mesh, v);
-            out << '\n';
+        out.end_section("$EndEntities");
+        // Nodes: node tag = index + 1, one block per entity that has nodes.
+        text << "$Nodes\n";
+        out.size(blocks).size(n).size(1).size(n).end_record();
+        for (std::size_t e = 0; e < entity_nodes.size(); ++e) {
+            const auto& nodes = entity_nodes[e];
+            if (nodes.empty()) continue;
+            const bool surface = e < entities.size();
+            out.integer(surface ? 2 : 3)
+                .integer(surface ? static_cast<std::int64_t>(e) + 1
+                                 : regions[e - entities.size()].label)
+                .integer(0)
+                .size(nodes.size())
+                .end_record();
+            for (std::int32_t v : nodes) out.size(static_cast<std::uint64_t>(v) + 1).end_record();
+            for (std::int32_t v : nodes) {
+                for (int k = 0; k < 3; ++k) out.real(mesh.xyz[3 * static_cast<std::size_t>(v) + k]);
+                out.end_record();
+            }
         }
-        out << "$EndNodes\n";
+        out.end_section("$EndNodes");
         // Elements: tet t has tag t + 1, face f has tag tets + f + 1.
         const std::size_t nt = mesh.tet_count(), nf = mesh.face_count();
-        out << "$Elements\n"
-            << entities.size() + regions.size() << ' ' << nt + nf << " 1 " << nt + nf << '\n';
+        text << "$Elements\n";
+        out.size(entities.size() + regions.size()).size(nt + nf).size(1).size(nt + nf);
+        out.end_record();
         for (std::size_t i = 0; i < entities.size(); ++i) {
-            out << "2 " << i + 1 << ' ' << kGmshTriangle << ' ' << entities[i].faces.size() << '\n';
+            out.integer(2).integer(static_cast<std::int64_t>(i) + 1).integer(kGmshTriangle);
+            out.size(entities[i].faces.size()).end_record();
             for (std::int32_t f : entities[i].faces) {
-                const auto& tri = mesh.faces[static_cast<std::size_t>(f)];
-                out << nt + static_cast<std::size_t>(f) + 1 << ' ' << tri[0] + 1 << ' '
-                    << tri[1] + 1 << ' ' << tri[2] + 1 << '\n';
+                out.size(nt + static_cast<std::size_t>(f) + 1);
+                for (std::int32_t v : mesh.faces[static_cast<std::size_t>(f)])
+                    out.size(static_cast<std::uint64_t>(v) + 1);
+                out.end_record();
             }
         }
         for (const auto& r : regions) {
-            out << "3 " << r.label << ' ' << kGmshTet << ' ' << r.tets.size() << '\n';
+            out.integer(3).integer(r.label).integer(kGmshTet).size(r.tets.size()).end_record();
             for (std::int32_t t : r.tets) {
-                const auto& tet = mesh.tets[static_cast<std::size_t>(t)];
-                out << static_cast<std::size_t>(t) + 1 << ' ' << tet[0] + 1 << ' ' << tet[1] + 1
-                    << ' ' << tet[2] + 1 << ' ' << tet[3] + 1 << '\n';
+                out.size(static_cast<std::size_t>(t) + 1);
+                for (std::int32_t v : mesh.tets[static_cast<std::size_t>(t)])
+                    out.size(static_cast<std::uint64_t>(v) + 1);
+                out.end_record();
             }
         }
-        out << "$EndElements\n";
-        out.close();
+        out.end_section("$EndElements");
+        text.close();
     });
 }
 
@@ -218,13 +326,26 @@ RawMesh read_msh(const std::string& path) {
     if (in.word("$MeshFormat") != "$MeshFormat") in.fail("not a Gmsh .msh file (no $MeshFormat)");
     const std::string version(in.word("the format version"));
     const long long file_type = in.integer("the file type");
-    in.integer("the data size");
-    if (in.word("$EndMeshFormat") != "$EndMeshFormat") in.fail("expected $EndMeshFormat");
-    if (file_type != 0)
-        in.fail(
-            "binary .msh files are not supported; save it as ASCII (gmsh FILE -0 -save -o "
-            "out.msh)");
+    const long long data_size = in.integer("the data size");
     const bool v4 = version == "4.1";
+    const bool binary = file_type != 0;
+    if (binary) {
+        // Binary MSH 4.1: the int 1 in the writer's byte order, then the sections with
+        // binary data between their text markers.
+        if (!v4)
+            in.fail("binary MSH " + version +
+                    " files are not supported (binary 4.1 and ASCII are; gmsh FILE -0 -save -o "
+                    "out.msh saves it as ASCII)");
+        if (data_size != 8)
+            in.fail("binary .msh with data size " + std::to_string(data_size) +
+                    " is not supported (8 is)");
+        in.skip_line();
+        in.set_binary(true);
+        const long long one = in.integer("the byte-order mark", 4);
+        in.set_binary(false);
+        if (one != 1) in.fail("binary .msh written with another byte order");
+    }
+    if (in.word("$EndMeshFormat") != "$EndMeshFormat") in.fail("expected $EndMeshFormat");
     if (!v4 && version.rfind("2.", 0) != 0)
         in.fail("MSH version " + version + " is not supported (4.1 and 2.x are)");
     raw.format = v4 ? "msh 4.1" : "msh " + version;
@@ -248,6 +369,12 @@ RawMesh read_msh(const std::string& path) {
             tris.push_back({tag, {v[0], v[1], v[2], 0}, region});
     };
 
+    // The data of a binary section starts after the line break that ends its $Name.
+    auto start_data = [&] {
+        if (!binary) return;
+        in.skip_line();
+        in.set_binary(true);
+    };
     while (!in.at_end()) {
         const std::string section(in.word("a section"));
         if (section.empty() || section[0] != '$')
@@ -264,44 +391,48 @@ RawMesh read_msh(const std::string& path) {
                 physical_names[{dim, tag}] = name;
             }
         } else if (section == "$Entities" && v4) {
+            start_data();
             long long count[4];
-            for (auto& c : count) c = in.integer("an entity count");
+            for (auto& c : count) c = in.integer("an entity count", 8);
             for (int dim = 0; dim < 4; ++dim)
                 for (long long i = 0; i < count[dim]; ++i) {
-                    const long long tag = in.integer("an entity tag");
+                    const long long tag = in.integer("an entity tag", 4);
                     for (int k = 0; k < (dim == 0 ? 3 : 6); ++k)
                         in.real("a bounding box coordinate");
-                    const long long np = in.integer("the number of physical tags");
+                    const long long np = in.integer("the number of physical tags", 8);
                     for (long long k = 0; k < np; ++k) {
-                        const long long p = in.integer("a physical tag");
+                        const long long p = in.integer("a physical tag", 4);
                         if (k == 0) entity_physical[{dim, tag}] = p;
                     }
                     if (dim > 0) {
-                        const long long nb = in.integer("the number of bounding entities");
-                        for (long long k = 0; k < nb; ++k) in.integer("a bounding entity");
+                        const long long nb = in.integer("the number of bounding entities", 8);
+                        for (long long k = 0; k < nb; ++k) in.integer("a bounding entity", 4);
                     }
                 }
+            in.set_binary(false);
         } else if (section == "$Nodes") {
             if (v4) {
-                const long long blocks = in.integer("the number of node blocks");
-                const long long total = in.integer("the number of nodes");
-                in.integer("the smallest node tag");
-                in.integer("the largest node tag");
+                start_data();
+                const long long blocks = in.integer("the number of node blocks", 8);
+                const long long total = in.integer("the number of nodes", 8);
+                in.integer("the smallest node tag", 8);
+                in.integer("the largest node tag", 8);
                 nodes.reserve(static_cast<std::size_t>(std::max(0LL, total)));
                 for (long long b = 0; b < blocks; ++b) {
-                    in.integer("an entity dimension");
-                    in.integer("an entity tag");
-                    const long long parametric = in.integer("the parametric flag");
-                    const long long n = in.integer("the number of nodes in the block");
+                    in.integer("an entity dimension", 4);
+                    in.integer("an entity tag", 4);
+                    const long long parametric = in.integer("the parametric flag", 4);
+                    const long long n = in.integer("the number of nodes in the block", 8);
+                    if (parametric) in.fail("parametric node coordinates are not supported");
                     const std::size_t first = nodes.size();
                     for (long long i = 0; i < n; ++i)
-                        nodes.push_back({in.integer("a node tag"), {}});
+                        nodes.push_back({in.integer("a node tag", 8), {}});
                     for (long long i = 0; i < n; ++i) {
                         auto& p = nodes[first + static_cast<std::size_t>(i)].second;
                         for (double& c : p) c = in.real("a node coordinate");
-                        if (parametric) in.fail("parametric node coordinates are not supported");
                     }
                 }
+                in.set_binary(false);
             } else {
                 const long long n = in.integer("the number of nodes");
                 nodes.reserve(static_cast<std::size_t>(std::max(0LL, n)));
@@ -315,26 +446,28 @@ RawMesh read_msh(const std::string& path) {
         } else if (section == "$Elements") {
             std::vector<long long> v;
             if (v4) {
-                const long long blocks = in.integer("the number of element blocks");
-                in.integer("the number of elements");
-                in.integer("the smallest element tag");
-                in.integer("the largest element tag");
+                start_data();
+                const long long blocks = in.integer("the number of element blocks", 8);
+                in.integer("the number of elements", 8);
+                in.integer("the smallest element tag", 8);
+                in.integer("the largest element tag", 8);
                 for (long long b = 0; b < blocks; ++b) {
-                    const int dim = static_cast<int>(in.integer("an entity dimension"));
-                    const long long entity = in.integer("an entity tag");
-                    const long long type = in.integer("an element type");
-                    const long long n = in.integer("the number of elements in the block");
+                    const int dim = static_cast<int>(in.integer("an entity dimension", 4));
+                    const long long entity = in.integer("an entity tag", 4);
+                    const long long type = in.integer("an element type", 4);
+                    const long long n = in.integer("the number of elements in the block", 8);
                     const int nn = gmsh_nodes_per_element(type);
                     if (nn == 0) in.fail("unknown element type " + std::to_string(type));
                     const auto it = entity_physical.find({dim, entity});
                     const long long region = it != entity_physical.end() ? it->second : entity;
                     v.resize(static_cast<std::size_t>(nn));
                     for (long long i = 0; i < n; ++i) {
-                        const long long tag = in.integer("an element tag");
-                        for (auto& x : v) x = in.integer("a node tag");
+                        const long long tag = in.integer("an element tag", 8);
+                        for (auto& x : v) x = in.integer("a node tag", 8);
                         add_element(static_cast<int>(type), tag, region, v);
                     }
                 }
+                in.set_binary(false);
             } else {
                 const long long n = in.integer("the number of elements");
                 for (long long i = 0; i < n; ++i) {

@@ -80,6 +80,22 @@ std::string LabelTable::name(core::Label label) const {
     return it != names_.end() ? it->second : "region_" + std::to_string(label);
 }
 
+Rgb LabelTable::colour(core::Label label) const {
+    const auto it = colours_.find(label);
+    return it != colours_.end() ? it->second : default_colour(label);
+}
+
+Rgb default_colour(core::Label label) {
+    // Twelve well-separated colours (ColorBrewer "Paired", reordered so that neighbouring
+    // labels differ in hue), grey for the background.
+    static constexpr Rgb kPalette[12] = {{{31, 120, 180}},  {{227, 26, 28}},   {{51, 160, 44}},
+                                         {{255, 127, 0}},   {{106, 61, 154}},  {{177, 89, 40}},
+                                         {{166, 206, 227}}, {{251, 154, 153}}, {{178, 223, 138}},
+                                         {{253, 191, 111}}, {{202, 178, 214}}, {{255, 255, 153}}};
+    if (label <= 0) return {{128, 128, 128}};
+    return kPalette[static_cast<std::size_t>(label - 1) % 12];
+}
+
 std::string LabelTable::safe_name(core::Label label) const {
     if (!safe_ready_) rebuild_safe_names();
     const auto it = safe_.find(label);
@@ -150,16 +166,27 @@ LabelTable read_label_table(const std::string& path) {
             FM_THROW(InputError, where + "label id " + f[0] + " out of range (0 .. 2^31-1)");
         // ITK-SNAP: the name is the quoted field; otherwise the second field.
         std::string name;
+        std::size_t rgb_at = 0;  // index in f of R G B, 0: none
         if (const std::size_t q = line.find('"'); q != std::string::npos) {
             const std::size_t e = line.find('"', q + 1);
             if (e == std::string::npos) FM_THROW(InputError, where + "unterminated quoted name");
             name = trimmed(line.substr(q + 1, e - q - 1));
+            rgb_at = 1;
         } else if (f.size() >= 2) {
             // The words after the id up to the first number (R G B, an atlas' own code).
             name = f[1];
             long long ignored = 0;
-            for (std::size_t i = 2; i < f.size() && !whole_number(f[i], ignored); ++i)
-                name += " " + f[i];
+            std::size_t i = 2;
+            for (; i < f.size() && !whole_number(f[i], ignored); ++i) name += " " + f[i];
+            rgb_at = i;
+        }
+        // Three whole numbers 0..255 there are a colour (an atlas' single code is not).
+        Rgb rgb{};
+        bool has_rgb = rgb_at > 0 && rgb_at + 3 <= f.size();
+        for (std::size_t k = 0; has_rgb && k < 3; ++k) {
+            long long c = 0;
+            has_rgb = whole_number(f[rgb_at + k], c) && c >= 0 && c <= 255;
+            rgb[k] = static_cast<std::uint8_t>(c);
         }
         if (name.empty()) FM_THROW(InputError, where + "label " + f[0] + " has no name");
         const auto label = static_cast<core::Label>(id);
@@ -167,6 +194,7 @@ LabelTable read_label_table(const std::string& path) {
             FM_THROW(InputError, where + "label " + f[0] + " listed twice (first as \"" +
                                      table.name(label) + "\")");
         table.set(label, name);
+        if (has_rgb) table.set_colour(label, rgb);
     }
     if (table.empty()) FM_THROW(InputError, "label table " + path + ": no labels found");
     return table;

@@ -2,6 +2,8 @@
 // Names of the labels of a segmentation (atlas tables beside the image, FreeSurfer / ITK-SNAP
 // colour tables), carried into exported meshes as region, group and set names.
 
+#include <array>
+#include <cstdint>
 #include <map>
 #include <string>
 
@@ -9,7 +11,11 @@
 
 namespace frontmesh::io {
 
-/// Label id -> name. Ids without a name get "region_<id>".
+/// An sRGB colour, 0..255 per channel.
+using Rgb = std::array<std::uint8_t, 3>;
+
+/// Label id -> name (and colour where the table gives one). Ids without a name get
+/// "region_<id>".
 class LabelTable {
 public:
     /// Sets the name of `label` (replacing an earlier one).
@@ -22,6 +28,11 @@ public:
     /// The name as given in the table, or "region_<id>".
     std::string name(core::Label label) const;
 
+    /// Sets the colour of `label` (FreeSurfer LUT, ITK-SNAP label description).
+    void set_colour(core::Label label, const Rgb& rgb) { colours_[label] = rgb; }
+    /// The table's colour of `label`, else default_colour(label).
+    Rgb colour(core::Label label) const;
+
     /// A name usable as an identifier in every export format: letters, digits and '_' only,
     /// starting with a letter, at most 64 characters; unique within this table (a clash gets
     /// "_<id>" appended). "region_<id>" for labels without a name.
@@ -29,10 +40,15 @@ public:
 
 private:
     std::map<core::Label, std::string> names_;
+    std::map<core::Label, Rgb> colours_;
     mutable std::map<core::Label, std::string> safe_;  // built on first use, deduplicated
     mutable bool safe_ready_ = false;
     void rebuild_safe_names() const;
 };
+
+/// A colour for `label` from a fixed palette of 12 distinct colours (label 0: grey), the
+/// same for a label in every run: label l > 0 gets entry (l - 1) mod 12.
+Rgb default_colour(core::Label label);
 
 /// Reads a label table. Accepted line styles (one label per line; blank lines and lines
 /// starting with '#' or '//' ignored; CRLF accepted; tabs, spaces or commas separate):
@@ -40,8 +56,10 @@ private:
 ///                                   is every word up to the first number ("1 Grey matter")
 ///   - "ID NAME R G B [A]"           FreeSurfer LUT (FreeSurferColorLUT.txt)
 ///   - "ID R G B A VIS MESH \"NAME\"" ITK-SNAP label description (name in double quotes)
-/// A header line whose first field is not a number is skipped only when it is the first
-/// non-comment line. Label 0 (background) may be present and is kept.
+/// Colours: the R G B of FreeSurfer and ITK-SNAP lines (three whole numbers 0..255 right
+/// after the name, or right after the id with a quoted name); other labels keep
+/// default_colour. A header line whose first field is not a number is skipped only when it
+/// is the first non-comment line. Label 0 (background) may be present and is kept.
 /// Throws InputError naming "file:line" for a bad line (id not an integer, no name,
 /// duplicate id) and for a missing, unreadable or binary file (e.g. mricron's binary .lut
 /// colour maps, which hold no names).

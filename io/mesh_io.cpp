@@ -24,12 +24,14 @@
 #include <vtkCharArray.h>
 #include <vtkCommand.h>
 #include <vtkDataArray.h>
+#include <vtkDataSet.h>
 #include <vtkDoubleArray.h>
 #include <vtkExecutive.h>
 #include <vtkFieldData.h>
 #include <vtkFloatArray.h>
 #include <vtkIdTypeArray.h>
 #include <vtkIntArray.h>
+#include <vtkLongLongArray.h>
 #include <vtkNew.h>
 #include <vtkPLYReader.h>
 #include <vtkPointData.h>
@@ -41,6 +43,7 @@
 #include <vtkUnsignedCharArray.h>
 #include <vtkUnstructuredGrid.h>
 #include <vtkXMLPolyDataReader.h>
+#include <vtkXMLPolyDataWriter.h>
 #include <vtkXMLReader.h>
 #include <vtkXMLUnstructuredGridReader.h>
 #include <vtkXMLUnstructuredGridWriter.h>
@@ -210,8 +213,10 @@ vtkSmartPointer<vtkUnstructuredGrid> surface_grid(const SurfaceNetwork& surface,
     return grid;
 }
 
-void write_grid(vtkUnstructuredGrid* grid, const std::string& path, const std::string& temp) {
-    vtkNew<vtkXMLUnstructuredGridWriter> writer;
+// A VTK XML dataset (Writer: vtkXMLUnstructuredGridWriter or vtkXMLPolyDataWriter).
+template <class Writer>
+void write_xml(vtkDataSet* grid, const std::string& path, const std::string& temp) {
+    vtkNew<Writer> writer;
     vtkNew<VtkMessageCapture> capture;
     capture->watch(writer);
     capture->watch(writer->GetExecutive());
@@ -238,6 +243,10 @@ void write_grid(vtkUnstructuredGrid* grid, const std::string& path, const std::s
         if (why.empty()) why = "VTK writer failed";
         FM_THROW(IoError, quoted(path) + ": cannot write: " + why);
     }
+}
+
+void write_grid(vtkUnstructuredGrid* grid, const std::string& path, const std::string& temp) {
+    write_xml<vtkXMLUnstructuredGridWriter>(grid, path, temp);
 }
 
 // ---------------------------------------------------------------------------------------
@@ -948,8 +957,35 @@ void add_field_values(vtkFieldData* fd, const char* name, int components, const 
     fd->AddArray(a);
 }
 
+// The cell array `colour` (uint8 x3, the colour of each cell's label) and the field arrays
+// `label_ids` / `label_colours` (the table). ParaView shows `colour` as is ("Map Scalars" off).
+void add_label_colours(vtkDataSet* data, const std::vector<core::Label>& cell_labels,
+                       const LabelColours& colours) {
+    vtkNew<vtkUnsignedCharArray> colour;
+    colour->SetName("colour");
+    colour->SetNumberOfComponents(3);
+    colour->SetNumberOfTuples(static_cast<vtkIdType>(cell_labels.size()));
+    for (std::size_t c = 0; c < cell_labels.size(); ++c) {
+        const auto it = colours.find(cell_labels[c]);
+        FM_CHECK(it != colours.end());
+        for (int k = 0; k < 3; ++k)
+            colour->SetTypedComponent(static_cast<vtkIdType>(c), k, it->second[k]);
+    }
+    data->GetCellData()->AddArray(colour);
+    std::vector<core::Label> ids;
+    std::vector<std::uint8_t> rgb;
+    for (const auto& [label, c] : colours) {
+        ids.push_back(label);
+        rgb.insert(rgb.end(), c.begin(), c.end());
+    }
+    add_field_values<vtkIntArray>(data->GetFieldData(), "label_ids", 1, ids.data(), ids.size());
+    add_field_values<vtkUnsignedCharArray>(data->GetFieldData(), "label_colours", 3, rgb.data(),
+                                           ids.size());
+}
+
 vtkSmartPointer<vtkUnstructuredGrid> tet_grid(const core::TetMesh& mesh, const FieldStrings& fields,
-                                              const std::vector<core::TetFigures>* figures) {
+                                              const std::vector<core::TetFigures>* figures,
+                                              const LabelColours* colours) {
     const std::size_t nn = mesh.node_count();
     const std::size_t nt = mesh.tet_count();
     const std::size_t nf = mesh.face_count();
@@ -1006,6 +1042,7 @@ vtkSmartPointer<vtkUnstructuredGrid> tet_grid(const core::TetMesh& mesh, const F
     add_field_values<vtkIntArray>(fd, "boundary_region_out", 1, mesh.region_out.data(), nf);
     add_field_values<vtkIntArray>(fd, "surface_vertices", 1, &mesh.surface_vertices, 1);
     add_field_strings(fd, fields);
+    if (colours != nullptr) add_label_colours(grid, mesh.region, *colours);
     return grid;
 }
 
@@ -1025,8 +1062,9 @@ vtkIntArray* int_field(vtkFieldData* fd, const char* name, int components,
 }  // namespace
 
 void write_tet_mesh_vtu(const core::TetMesh& mesh, const std::string& path,
-                        const FieldStrings& fields, const std::vector<core::TetFigures>* figures) {
-    const vtkSmartPointer<vtkUnstructuredGrid> grid = tet_grid(mesh, fields, figures);
+                        const FieldStrings& fields, const std::vector<core::TetFigures>* figures,
+                        const LabelColours* colours) {
+    const vtkSmartPointer<vtkUnstructuredGrid> grid = tet_grid(mesh, fields, figures, colours);
     write_atomically(path, [&](const std::string& temp) { write_grid(grid, path, temp); });
 }
 
@@ -1108,6 +1146,70 @@ core::TetMesh read_tet_mesh(const std::string& path, FieldStrings* fields) {
         mesh.surface_vertices = static_cast<std::int32_t>(mesh.node_count());
     }
     return mesh;
+}
+
+void write_surface_vtp(const core::TetMesh& mesh, const std::vector<std::int64_t>& face_tags,
+                       const std::string& path, const FieldStrings& fields,
+                       const LabelColours* colours) {
+    const std::size_t nf = mesh.face_count();
+    FM_CHECK(face_tags.size() == nf);
+    FM_CHECK(mesh.region_in.size() == nf && mesh.region_out.size() == nf);
+    // The nodes of the faces, in TetMesh order (each face visited once).
+    std::vector<std::int32_t> local(mesh.node_count(), -1);
+    for (const auto& f : mesh.faces)
+        for (std::int32_t v : f) local[static_cast<std::size_t>(v)] = 0;
+    vtkNew<vtkPoints> points;
+    points->SetDataTypeToDouble();
+    vtkNew<vtkIntArray> node;
+    node->SetName("node");
+    std::int32_t next = 0;
+    for (std::size_t v = 0; v < mesh.node_count(); ++v) {
+        if (local[v] < 0) continue;
+        local[v] = next++;
+        points->InsertNextPoint(mesh.xyz[3 * v], mesh.xyz[3 * v + 1], mesh.xyz[3 * v + 2]);
+        node->InsertNextValue(static_cast<int>(v));
+    }
+    vtkNew<vtkCellArray> triangles;
+    for (const auto& f : mesh.faces) {
+        const vtkIdType ids[3] = {local[static_cast<std::size_t>(f[0])],
+                                  local[static_cast<std::size_t>(f[1])],
+                                  local[static_cast<std::size_t>(f[2])]};
+        triangles->InsertNextCell(3, ids);
+    }
+    vtkNew<vtkPolyData> poly;
+    poly->SetPoints(points);
+    poly->SetPolys(triangles);
+    poly->GetPointData()->AddArray(node);
+    vtkNew<vtkLongLongArray> tag;
+    tag->SetName("tag");
+    tag->SetNumberOfTuples(static_cast<vtkIdType>(nf));
+    std::copy(face_tags.begin(), face_tags.end(), tag->GetPointer(0));
+    poly->GetCellData()->AddArray(tag);
+    for (const auto& [name, labels] :
+         {std::pair{"region_in", &mesh.region_in}, std::pair{"region_out", &mesh.region_out}}) {
+        vtkNew<vtkIntArray> a;
+        a->SetName(name);
+        a->SetNumberOfTuples(static_cast<vtkIdType>(nf));
+        std::copy(labels->begin(), labels->end(), a->GetPointer(0));
+        poly->GetCellData()->AddArray(a);
+    }
+    if (colours != nullptr) add_label_colours(poly, mesh.region_in, *colours);
+    // Text as vtkStringArray, a value per line, so ParaView shows it as text.
+    for (const auto& [key, value] : fields) {
+        vtkNew<vtkStringArray> text;
+        text->SetName(key.c_str());
+        std::size_t pos = 0;
+        while (pos < value.size()) {  // one line per round: pos grows by at least 1
+            std::size_t end = value.find('\n', pos);
+            if (end == std::string::npos) end = value.size();
+            text->InsertNextValue(value.substr(pos, end - pos));
+            pos = end + 1;
+        }
+        if (value.empty()) text->InsertNextValue("");
+        poly->GetFieldData()->AddArray(text);
+    }
+    write_atomically(
+        path, [&](const std::string& temp) { write_xml<vtkXMLPolyDataWriter>(poly, path, temp); });
 }
 
 }  // namespace frontmesh::io

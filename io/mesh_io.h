@@ -1,6 +1,8 @@
 #pragma once
 // Surface meshes in and out: VTU checkpoints, and input surfaces in common formats.
 
+#include <array>
+#include <cstdint>
 #include <map>
 #include <string>
 #include <utility>
@@ -34,6 +36,9 @@ void write_surface_vtu(const core::SurfaceNetwork& surface, const std::string& p
 /// when it is missing, of an unknown format, empty, or has non-triangle cells.
 core::SurfaceNetwork read_surface(const std::string& path, FieldStrings* fields = nullptr);
 
+/// A colour (sRGB, 0..255) per region label.
+using LabelColours = std::map<core::Label, std::array<std::uint8_t, 3>>;
+
 /// Writes `mesh` as a VTK XML unstructured grid of tetrahedra (binary, zlib), atomically.
 /// Cell arrays: `region` (int32), `skewness` (Eq. 1) and `min_dihedral` (degrees) (float32,
 /// from `figures` when given: core::tet_figures of every tet in order, else computed here);
@@ -41,10 +46,25 @@ core::SurfaceNetwork read_surface(const std::string& path, FieldStrings* fields 
 /// travel in field data (`boundary_faces` int32 x3, `boundary_region_in`,
 /// `boundary_region_out`, `surface_vertices`), so the file holds only tets for ParaView and
 /// solvers while read_tet_mesh() restores the whole TetMesh. Field data: one string array
-/// per entry of `fields`. Throws IoError naming `path` on failure.
+/// per entry of `fields` (a char array: meshio rejects VTK's String type). With `colours`
+/// (one per region label of the mesh): the cell array `colour` (uint8 x3, the tet's region
+/// colour: ParaView shows it as is with "Map Scalars" off) and the field arrays `label_ids`
+/// (int32) and `label_colours` (uint8 x3). Throws IoError naming `path` on failure.
 void write_tet_mesh_vtu(const core::TetMesh& mesh, const std::string& path,
                         const FieldStrings& fields,
-                        const std::vector<core::TetFigures>* figures = nullptr);
+                        const std::vector<core::TetFigures>* figures = nullptr,
+                        const LabelColours* colours = nullptr);
+
+/// Writes the boundary and interface triangles of `mesh` (mesh.faces, in order) as a VTK
+/// XML PolyData file (.vtp; binary, zlib), atomically: the nodes of the faces (point array
+/// `node`: the node's index in the TetMesh, which is its point index in the VTU), cell
+/// arrays `tag` (int64, `face_tags`: one per face), `region_in` and `region_out` (int32)
+/// and, with `colours`, `colour` (of region_in) plus the field arrays `label_ids` and
+/// `label_colours`. Field data: one vtkStringArray per entry of `fields`, a value per
+/// line, which ParaView shows as text. Throws IoError naming `path` on failure.
+void write_surface_vtp(const core::TetMesh& mesh, const std::vector<std::int64_t>& face_tags,
+                       const std::string& path, const FieldStrings& fields,
+                       const LabelColours* colours = nullptr);
 
 /// Reads a tetrahedral mesh from .vtu (as written by write_tet_mesh_vtu, or any VTU of tets:
 /// region from a cell array `region` when present, else 1; without boundary field data the

@@ -248,6 +248,10 @@ void add_output_keys(std::vector<KeySpec>& specs) {
                              r.output.formats.push_back(f);
                          }
                      }});
+    specs.push_back(
+        {"output.binary", "false", "", "",
+         "binary mesh.msh (MSH 4.1); VTU is always binary, other formats text",
+         [](const YAML::Node& n, Recipe& r, const Where& w) { r.output.binary = as_bool(n, w); }});
     specs.push_back({"output.quality_report", "true", "", "",
                      "report.html with quality histograms after refine",
                      [](const YAML::Node& n, Recipe& r, const Where& w) {

@@ -31,6 +31,7 @@ struct OutputSection {
     std::string dir;  ///< absolute
     core::Frame frame = core::Frame::Lps;
     std::vector<std::string> formats{"vtu"};  ///< exports of a tet mesh: mesh.EXT
+    bool binary = false;                      ///< binary mesh.msh (VTU is always binary)
     bool quality_report = true;               ///< report.html + SVG histograms after refine
     bool allow_input_folder = false;          ///< dir may be (or contain) the input's folder
 };

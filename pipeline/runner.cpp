@@ -774,9 +774,10 @@ void Run::write_stage_summary(int i, const core::StageContext& ctx, double wall,
     info(buf + quality.line);
 }
 
-// The final result: mesh.vtu for a tetrahedral mesh (a copy of the last checkpoint, or
-// written again with the region names) plus the other formats asked for, and the
-// quality report after refine; surface.vtu, a copy of the last checkpoint, for a surface.
+// The final result: mesh.vtu for a tetrahedral mesh (the last checkpoint's mesh with region
+// colours and names), mesh_surface.vtp (its boundary and interface triangles with their
+// tags), the other formats asked for, and the quality report after refine; surface.vtu, a
+// copy of the last checkpoint, for a surface.
 //
 // Each result file is tied to what it was made from (issue 21): checkpoints/results.hash
 // lists "NAME KEY" per file, KEY being results_key(). A file is written again when a stage
@@ -794,6 +795,7 @@ std::string Run::write_results() {
     const fs::path result = out_.dir / (tet_result ? "mesh.vtu" : "surface.vtu");
     std::vector<fs::path> files = {result};
     if (tet_result) {
+        files.push_back(out_.dir / io::surface_file_name());
         for (const std::string& name : recipe_.output.formats)
             if (const io::MeshFormat format = io::format_from_name(name);
                 format != io::MeshFormat::Vtu)
@@ -816,8 +818,7 @@ std::string Run::write_results() {
         fs::remove(record_path);
         committed(record_path);
     }
-    if ((!tet_result || names_.empty()) &&
-        std::find(stale.begin(), stale.end(), result) != stale.end()) {
+    if (!tet_result && std::find(stale.begin(), stale.end(), result) != stale.end()) {
         io::write_atomically(result.string(), [&](const std::string& temp) {
             fs::copy_file(last_checkpoint, temp, fs::copy_options::overwrite_existing);
         });
@@ -841,6 +842,7 @@ std::string Run::write_results() {
 std::string Run::results_key() const {
     Hash h;
     h.add(hashes_[last_]);
+    h.add(recipe_.output.binary ? "binary" : "text");
     for (const auto& [label, name] : names_.names()) {
         h.add(std::to_string(label));
         h.add(name);
@@ -854,23 +856,28 @@ void Run::write_exports(const fs::path& result, const fs::path& last_checkpoint,
         return std::find(stale.begin(), stale.end(), file) != stale.end();
     };
     std::vector<std::pair<fs::path, io::MeshFormat>> exports;
-    if (!names_.empty() && wanted(result)) exports.emplace_back(result, io::MeshFormat::Vtu);
+    if (wanted(result)) exports.emplace_back(result, io::MeshFormat::Vtu);  // with colours
     for (const std::string& name : recipe_.output.formats) {
         const io::MeshFormat format = io::format_from_name(name);
         const fs::path file = out_.dir / io::export_file_name(format);
         if (format != io::MeshFormat::Vtu && wanted(file)) exports.emplace_back(file, format);
     }
     const bool report = wanted(out_.dir / "report.html");
-    if (exports.empty() && !report) return;
+    const fs::path surface = out_.dir / io::surface_file_name();
+    if (exports.empty() && !report && !wanted(surface)) return;
     const core::TetMesh mesh = std::holds_alternative<core::TetMesh>(data_)
                                    ? std::get<core::TetMesh>(std::move(data_))
                                    : io::read_tet_mesh(last_checkpoint.string());
     const io::FieldStrings fields = {
         {"frame", frame_}, {"stage", stages_[last_].name}, {"frontmesh_version", version()}};
     for (const auto& [file, format] : exports) {
-        io::write_mesh(mesh, file.string(), format, names_, fields);
+        io::write_mesh(mesh, file.string(), format, names_, fields, {recipe_.output.binary});
         committed(file);
         info("wrote " + file.string());
+    }
+    if (wanted(surface)) {
+        io::write_mesh_surface(mesh, surface.string(), names_, fields);
+        committed(surface);
     }
     if (report) {
         // The tetra histograms of this run, else those of its checkpoint (--from refine).

@@ -88,6 +88,13 @@ Run run(const std::string& command) {
 
 bool have(const std::string& program) { return run("command -v " + program).exit_code == 0; }
 
+std::string slurp(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    std::ostringstream s;
+    s << in.rdbuf();
+    return s.str();
+}
+
 bool have_meshio() { return run("/usr/bin/python3 -c 'import meshio'").exit_code == 0; }
 
 /// "R a b c d" per tet (nodes sorted, 0-based) and "T tag a b c" per triangle, sorted:
@@ -130,12 +137,19 @@ std::vector<std::string> lines_of(const std::string& text) {
 
 /// meshio's view of a file: "N nodes", then R/T lines as in signature(). Regions: the
 /// cell data gmsh:physical / medit:ref, or for .inp the element set names mapped by `names`.
-std::string meshio_dump(const std::string& path, const std::string& set_to_label) {
+std::string meshio_dump(const std::string& path, const std::string& set_to_label,
+                        const core::TetMesh& ours) {
     const std::string script = R"PY(
 import sys, meshio, numpy as np
 m = meshio.read(sys.argv[1])
 set_to_label = dict(kv.split('=') for kv in sys.argv[2].split(',') if kv)
 print("N", len(m.points))
+# Our node numbers by (exact) coordinates: a reader may list the nodes in another order
+# (meshio takes MSH 4.1 nodes in file order, entity by entity).
+ours = {}
+for i, line in enumerate(open(sys.argv[3])):
+    ours[tuple(float(x) for x in line.split())] = i
+index = [ours.get(tuple(float(x) for x in p), -1) for p in m.points]
 key = next((k for k in ("gmsh:physical", "medit:ref") if k in m.cell_data), None)
 for i, blk in enumerate(m.cells):
     if blk.type not in ("tetra", "triangle"):
@@ -148,12 +162,21 @@ for i, blk in enumerate(m.cells):
             if name.upper() in set_to_label and len(sets) > i and sets[i] is not None:
                 tags[np.asarray(sets[i], int)] = int(set_to_label[name.upper()])
     for c, t in zip(blk.data, tags):
-        c = sorted(int(x) for x in c)
+        c = sorted(index[int(x)] for x in c)
         print(("R" if blk.type == "tetra" else "T"), int(t), *c)
 )PY";
     const std::string py = fs::path(path).parent_path() / "dump.py";
     std::ofstream(py) << script;
-    const Run r = run("/usr/bin/python3 '" + py + "' '" + path + "' '" + set_to_label + "'");
+    const std::string points = fs::path(path).parent_path() / "points.txt";
+    {
+        std::ofstream out(points);
+        out.precision(17);
+        for (std::size_t v = 0; v < ours.node_count(); ++v)
+            out << ours.xyz[3 * v] << ' ' << ours.xyz[3 * v + 1] << ' ' << ours.xyz[3 * v + 2]
+                << '\n';
+    }
+    const Run r =
+        run("/usr/bin/python3 '" + py + "' '" + path + "' '" + set_to_label + "' '" + points + "'");
     INFO(r.out);
     REQUIRE(r.exit_code == 0);
     return r.out;
@@ -278,6 +301,121 @@ TEST_CASE("readers reject bad files naming file and line", "[io][export]") {
     CHECK_THROWS_AS(io::read_mesh(dir + "/missing.vtu"), core::InputError);
 }
 
+/// The $Nodes of an ASCII MSH 4.1 file: node tag -> (entity dim, entity tag), and the
+/// count of node tags listed (a node listed twice shows as a count above the map's size).
+struct NodeEntities {
+    std::map<long long, std::pair<int, long long>> entity;
+    std::size_t listed = 0;
+};
+NodeEntities msh41_node_entities(const std::string& path) {
+    std::ifstream in(path);
+    NodeEntities result;
+    std::string word;
+    while (in >> word && word != "$Nodes") {
+    }
+    std::size_t blocks = 0, nodes = 0, min_tag = 0, max_tag = 0;
+    in >> blocks >> nodes >> min_tag >> max_tag;
+    for (std::size_t b = 0; b < blocks && in; ++b) {
+        int dim = 0, parametric = 0;
+        long long tag = 0;
+        std::size_t count = 0;
+        in >> dim >> tag >> parametric >> count;
+        std::vector<long long> tags(count);
+        for (auto& t : tags) in >> t;
+        for (std::size_t i = 0; i < 3 * count; ++i) in >> word;  // coordinates
+        for (long long t : tags) result.entity[t] = {dim, tag};
+        result.listed += count;
+    }
+    return result;
+}
+
+TEST_CASE("MSH 4.1: each node in the entity Gmsh gives it, binary reads the same",
+          "[io][export][gmsh]") {
+    const core::TetMesh mesh = three_region_cube();
+    const io::LabelTable names = names_for_cube();
+    const std::string dir = fixtures::temp_dir("export_msh_entities");
+    const std::string ascii = dir + "/mesh.msh", binary = dir + "/binary.msh";
+    io::write_mesh(mesh, ascii, io::MeshFormat::Msh41, names);
+    io::write_mesh(mesh, binary, io::MeshFormat::Msh41, names, {}, {true});
+    CHECK_THAT(slurp(binary), Catch::StartsWith("$MeshFormat\n4.1 1 8\n"));
+    // The expected entity of each node: a node on a face -> a surface entity (dim 2) that
+    // holds a face with it; any other node -> the volume of its region (entity tag = label).
+    std::vector<char> on_face(mesh.node_count(), 0);
+    for (const auto& f : mesh.faces)
+        for (std::int32_t v : f) on_face[static_cast<std::size_t>(v)] = 1;
+    std::vector<core::Label> interior_region(mesh.node_count(), -1);
+    for (std::size_t t = 0; t < mesh.tet_count(); ++t)
+        for (std::int32_t v : mesh.tets[t])
+            if (!on_face[static_cast<std::size_t>(v)])
+                interior_region[static_cast<std::size_t>(v)] = mesh.region[t];
+    auto check_entities = [&](const NodeEntities& got) {
+        CHECK(got.listed == mesh.node_count());  // each node once
+        REQUIRE(got.entity.size() == mesh.node_count());
+        std::map<long long, std::size_t> per_volume;
+        for (std::size_t v = 0; v < mesh.node_count(); ++v) {
+            const auto [dim, tag] = got.entity.at(static_cast<long long>(v) + 1);
+            INFO("node " << v + 1);
+            if (on_face[v]) {
+                CHECK(dim == 2);
+            } else {
+                CHECK(dim == 3);
+                CHECK(tag == interior_region[v]);
+                ++per_volume[tag];
+            }
+        }
+        // Regions 1 and 2 have interior nodes (region 7 is one cell thick: none), each in
+        // its own volume, not all in the first.
+        CHECK(per_volume[1] > 0);
+        CHECK(per_volume[2] > 0);
+        CHECK(per_volume.count(7) == 0);
+    };
+    check_entities(msh41_node_entities(ascii));
+    // Our reader reads the binary file to the mesh of the ASCII one.
+    io::LabelTable names_ascii, names_binary;
+    const core::TetMesh from_text = io::read_mesh(ascii, &names_ascii);
+    const core::TetMesh from_bytes = io::read_mesh(binary, &names_binary);
+    CHECK(from_bytes.xyz == from_text.xyz);
+    CHECK(from_bytes.tets == from_text.tets);
+    CHECK(from_bytes.region == from_text.region);
+    CHECK(from_bytes.faces == from_text.faces);
+    CHECK(from_bytes.region_in == from_text.region_in);
+    CHECK(from_text.xyz == mesh.xyz);
+    CHECK(names_binary.names() == names_ascii.names());
+    // A cut binary file is an InputError naming it, not a crash.
+    const std::string cut = dir + "/cut.msh";
+    std::ofstream(cut, std::ios::binary) << slurp(binary).substr(0, slurp(binary).size() / 2);
+    CHECK_THROWS_AS(io::read_mesh(cut), core::InputError);
+    if (!have("gmsh")) {
+        FM_SKIP("gmsh not installed (scripts/install-deps.sh installs it)");
+    }
+    // gmsh keeps the classification (its re-save lists per entity what getNodes(dim, tag)
+    // returns), and reads the binary file to the very same model.
+    const std::string from_ascii = dir + "/gmsh-ascii.msh", from_binary = dir + "/gmsh-bin.msh";
+    for (const auto& [in, out] : {std::pair{ascii, from_ascii}, std::pair{binary, from_binary}}) {
+        const Run save = run("gmsh '" + in + "' -0 -format msh41 -o '" + out + "'");
+        INFO(save.out);
+        REQUIRE(save.exit_code == 0);
+        CHECK_THAT(save.out, !Catch::Contains("Error"));
+    }
+    check_entities(msh41_node_entities(from_ascii));
+    CHECK(slurp(from_binary) == slurp(from_ascii));
+    if (have_meshio()) {
+        // meshio reads the binary file to the same points, cells and physical tags.
+        const std::string dump =
+            "import meshio, sys\n"
+            "m = meshio.read(sys.argv[1])\n"
+            "print(repr(m.points.tolist()))\n"
+            "for c, t in zip(m.cells, m.cell_data['gmsh:physical']):\n"
+            "    print(c.type, c.data.tolist(), t.tolist())\n";
+        const Run a = run("/usr/bin/python3 -c \"" + dump + "\" '" + ascii + "'");
+        const Run b = run("/usr/bin/python3 -c \"" + dump + "\" '" + binary + "'");
+        INFO(a.out << b.out);
+        REQUIRE(a.exit_code == 0);
+        REQUIRE(b.exit_code == 0);
+        CHECK(a.out == b.out);
+    }
+}
+
 TEST_CASE("gmsh reads the MSH 4.1, MSH 2.2 and MEDIT exports", "[io][export][gmsh]") {
     if (!have("gmsh")) {
         FM_SKIP("gmsh not installed (scripts/install-deps.sh installs it)");
@@ -387,7 +525,7 @@ TEST_CASE("meshio reads the msh, mesh, inp and vtu exports", "[io][export][meshi
         const std::string path = dir + "/" + io::export_file_name(format);
         INFO(path);
         io::write_mesh(mesh, path, format, names);
-        const std::string dump = meshio_dump(path, set_to_label);
+        const std::string dump = meshio_dump(path, set_to_label, mesh);
         CHECK(meshio_nodes(dump) == mesh.node_count());
         CHECK(lines_of(dump) == (format == io::MeshFormat::Abaqus ? tets_only : with_faces));
     }
@@ -404,6 +542,89 @@ TEST_CASE("meshio reads the msh, mesh, inp and vtu exports", "[io][export][meshi
     REQUIRE(r.exit_code == 0);
     CHECK_THAT(r.out, Catch::Contains(std::to_string(mesh.node_count()) + " " +
                                       std::to_string(mesh.tet_count()) + " [1, 2, 7]"));
+}
+
+TEST_CASE("ParaView files: region colours in the VTU, mesh_surface.vtp with tags and text",
+          "[io][export][vtu]") {
+    if (run("/usr/bin/python3 -c 'import vtk'").exit_code != 0) {
+        FM_SKIP("python3-vtk not installed");
+    }
+    const core::TetMesh mesh = three_region_cube();
+    io::LabelTable names = names_for_cube();
+    names.set_colour(2, {250, 250, 250});  // from the table; 1 and 7 take the palette
+    const std::string dir = fixtures::temp_dir("export_paraview");
+    const std::string vtu = dir + "/mesh.vtu", vtp = dir + "/" + io::surface_file_name();
+    CHECK(io::surface_file_name() == "mesh_surface.vtp");
+    const io::FieldStrings fields = {{"frame", "lps"}, {"frontmesh_version", "9.9"}};
+    io::write_mesh(mesh, vtu, io::MeshFormat::Vtu, names, fields);
+    io::write_mesh_surface(mesh, vtp, names, fields);
+    const std::string py = R"PY(
+import sys, vtk
+def read(reader, f):
+    r = reader(); r.SetFileName(f); r.Update(); return r.GetOutput()
+def colour(a, i):
+    return tuple(int(a.GetComponent(i, k)) for k in range(3))
+g = read(vtk.vtkXMLUnstructuredGridReader, sys.argv[1])
+c, region = g.GetCellData().GetArray('colour'), g.GetCellData().GetArray('region')
+print('vtu colours', sorted({(int(region.GetValue(i)),) + colour(c, i)
+                             for i in range(g.GetNumberOfCells())}))
+ids, table = g.GetFieldData().GetArray('label_ids'), g.GetFieldData().GetArray('label_colours')
+print('vtu table', [(int(ids.GetValue(i)),) + colour(table, i)
+                    for i in range(ids.GetNumberOfTuples())])
+s = read(vtk.vtkXMLPolyDataReader, sys.argv[2])
+cd = s.GetCellData()
+tag, rin, rout = (cd.GetArray(n) for n in ('tag', 'region_in', 'region_out'))
+node = s.GetPointData().GetArray('node')
+print('vtp triangles', s.GetNumberOfCells(), 'points', s.GetNumberOfPoints())
+bad = 0
+for i in range(s.GetNumberOfCells()):
+    a, b = sorted((int(rin.GetValue(i)), int(rout.GetValue(i))))
+    bad += int(tag.GetValue(i)) != a * 100000 + b
+    ids_ = s.GetCell(i).GetPointIds()
+    p = [g.GetPoint(int(node.GetValue(ids_.GetId(k)))) for k in range(3)]
+    q = [s.GetPoint(ids_.GetId(k)) for k in range(3)]
+    bad += p != q
+print('vtp bad', bad)
+fd = s.GetFieldData()
+for n in ('frame', 'frontmesh_version', 'region_names', 'surface_tags'):
+    a = fd.GetAbstractArray(n)
+    print('text', n, a.GetClassName(), [a.GetValue(i) for i in range(a.GetNumberOfValues())])
+)PY";
+    std::ofstream(dir + "/check.py") << py;
+    const Run r = run("/usr/bin/python3 '" + dir + "/check.py' '" + vtu + "' '" + vtp + "'");
+    INFO(r.out);
+    REQUIRE(r.exit_code == 0);
+    const auto [r1, g1, b1] = io::default_colour(1);
+    const auto [r7, g7, b7] = io::default_colour(7);
+    const std::string c1 =
+        std::to_string(r1) + ", " + std::to_string(g1) + ", " + std::to_string(b1);
+    const std::string c7 =
+        std::to_string(r7) + ", " + std::to_string(g7) + ", " + std::to_string(b7);
+    CHECK_THAT(r.out, Catch::Contains("vtu colours [(1, " + c1 + "), (2, 250, 250, 250), (7, " +
+                                      c7 + ")]\n"));
+    CHECK_THAT(r.out, Catch::Contains("vtu table [(1, " + c1 + "), (2, 250, 250, 250), (7, " + c7 +
+                                      ")]\n"));
+    CHECK_THAT(r.out,
+               Catch::Contains("vtp triangles " + std::to_string(mesh.face_count()) + " points "));
+    CHECK_THAT(r.out, Catch::Contains("vtp bad 0\n"));
+    CHECK_THAT(r.out, Catch::Contains("text frame vtkStringArray ['lps']\n"));
+    CHECK_THAT(r.out, Catch::Contains("text frontmesh_version vtkStringArray ['9.9']\n"));
+    CHECK_THAT(r.out, Catch::Contains("text region_names vtkStringArray ['1 Grey matter', "
+                                      "'2 White-matter (WM)', '7 CSF']\n"));
+    CHECK_THAT(r.out, Catch::Contains("'100002 interface_Grey_matter_White_matter_WM'"));
+    // meshio still reads the VTU (its text stays a char array: meshio rejects VTK strings).
+    if (have_meshio()) {
+        const Run m =
+            run("/usr/bin/python3 -c \"import meshio, sys; m = meshio.read(sys.argv[1]); "
+                "print(len(m.points), len(m.cells_dict['tetra']), "
+                "m.cell_data['colour'][0].shape)\" '" +
+                vtu + "'");
+        INFO(m.out);
+        CHECK(m.exit_code == 0);
+        CHECK_THAT(m.out, Catch::Contains(std::to_string(mesh.node_count()) + " " +
+                                          std::to_string(mesh.tet_count()) + " (" +
+                                          std::to_string(mesh.tet_count()) + ", 3)"));
+    }
 }
 
 TEST_CASE("FEBio export: parts, domains, placeholder materials and surfaces",
@@ -469,6 +690,52 @@ TEST_CASE("FEBio export: parts, domains, placeholder materials and surfaces",
     }
     CHECK_THAT(r.out, Catch::Contains("surface boundary " + std::to_string(outer) + "\n"));
     CHECK_THAT(r.out, Catch::Contains("nodeset boundary_NODES "));
+}
+
+TEST_CASE("FEBio export: a complete FEBio 4 model by the structural check", "[io][export][febio]") {
+    if (run("/usr/bin/python3 -c 'import xml.etree.ElementTree'").exit_code != 0) {
+        FM_SKIP("python3 not installed");
+    }
+    const core::TetMesh mesh = three_region_cube();
+    const io::LabelTable names = names_for_cube();
+    const std::string dir = fixtures::temp_dir("export_febio_check");
+    const std::string path = dir + "/mesh.feb";
+    io::write_mesh(mesh, path, io::MeshFormat::Febio, names);
+    const std::string check = "/usr/bin/python3 '" FRONTMESH_SOURCE_DIR "/tests/io/check_feb.py' ";
+    const Run r = run(check + "'" + path + "'");
+    INFO(r.out);
+    REQUIRE(r.exit_code == 0);
+    CHECK_THAT(r.out, Catch::Contains("count nodes " + std::to_string(mesh.node_count()) + "\n"));
+    CHECK_THAT(r.out, Catch::Contains("count elements " + std::to_string(mesh.tet_count()) + "\n"));
+    CHECK_THAT(r.out, Catch::Contains("count ElementSet all_elements " +
+                                      std::to_string(mesh.tet_count()) + "\n"));
+    // A SurfacePair per interface (1-2, 1-7, 2-7), naming its two sides.
+    CHECK_THAT(r.out, Catch::Contains("count pairs 3\n"));
+    const std::string text = slurp(path);
+    CHECK_THAT(text, Catch::Contains("<SurfacePair name=\"interface_Grey_matter_CSF_PAIR\">\n"
+                                     "\t\t\t<primary>interface_Grey_matter_CSF</primary>\n"
+                                     "\t\t\t<secondary>interface_CSF_Grey_matter</secondary>"));
+    CHECK_THAT(text, Catch::Contains("<units>mm-N-s</units>"));
+    CHECK_THAT(text, Catch::Contains("PLACEHOLDER material, units MPa"));
+
+    // The check finds what FEBio would reject: a part without a domain, a pair naming a
+    // missing surface, a face on a missing node.
+    const std::vector<std::pair<std::string, std::string>> broken = {
+        {"<SolidDomain name=\"CSF\" mat=\"CSF\"/>", ""},
+        {"<secondary>interface_CSF_Grey_matter</secondary>", "<secondary>nothing</secondary>"},
+        {"<tri3 id=\"1\">", "<tri3 id=\"1\">99999,"}};
+    for (const auto& [from, to] : broken) {
+        INFO(from);
+        std::string bad = text;
+        const auto at = bad.find(from);
+        REQUIRE(at != std::string::npos);
+        bad.replace(at, from.size(), to);
+        const std::string bad_path = dir + "/bad.feb";
+        std::ofstream(bad_path) << bad;
+        const Run b = run(check + "'" + bad_path + "'");
+        CHECK(b.exit_code != 0);
+        CHECK_THAT(b.out, Catch::Contains("FAIL:"));
+    }
 }
 
 TEST_CASE("Abaqus surfaces: both sides of interfaces, the outer boundary", "[io][export]") {

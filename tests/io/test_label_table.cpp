@@ -30,6 +30,9 @@ TEST_CASE("label table styles", "[io][labels]") {
         CHECK(t.name(1) == "Precentral_L");
         CHECK(t.name(2) == "Precentral_R");
         CHECK(t.name(3) == "region_3");
+        // One number after the name is the atlas' code, not a colour.
+        CHECK(t.colour(1) == io::default_colour(1));
+        CHECK(t.colour(2) != t.colour(1));
     }
     SECTION("tab separated with background 0") {
         const auto t = io::read_label_table(
@@ -47,6 +50,9 @@ TEST_CASE("label table styles", "[io][labels]") {
                   "17  Left-Hippocampus                        220 216 20  0\n"));
         CHECK(t.name(17) == "Left-Hippocampus");
         CHECK(t.safe_name(2) == "Left_Cerebral_White_Matter");
+        CHECK(t.colour(17) == io::Rgb{220, 216, 20});
+        CHECK(t.colour(2) == io::Rgb{245, 245, 245});
+        CHECK(t.colour(5) == io::default_colour(5));
     }
     SECTION("ITK-SNAP label description with quoted names") {
         const auto t = io::read_label_table(
@@ -59,6 +65,8 @@ TEST_CASE("label table styles", "[io][labels]") {
         CHECK(t.name(1) == "Left hippocampus");
         CHECK(t.safe_name(1) == "Left_hippocampus");
         CHECK(t.safe_name(12) == "R_3rd_ventricle");
+        CHECK(t.colour(1) == io::Rgb{255, 0, 0});
+        CHECK(t.colour(12) == io::Rgb{0, 255, 0});
     }
     SECTION("CSV with a header") {
         const auto t = io::read_label_table(write(dir, "labels.csv", "id,name\n1,brain\n2,csf\n"));
@@ -69,6 +77,11 @@ TEST_CASE("label table styles", "[io][labels]") {
             write(dir, "words.txt", "1 Grey matter\n2 White matter 200 10 10\n"));
         CHECK(t.name(1) == "Grey matter");
         CHECK(t.name(2) == "White matter");
+        CHECK(t.colour(2) == io::Rgb{200, 10, 10});
+        // The default palette: the same colour for a label in every run, distinct neighbours.
+        CHECK(t.colour(1) == io::default_colour(1));
+        CHECK(io::default_colour(1) != io::default_colour(2));
+        CHECK(io::default_colour(13) == io::default_colour(1));
     }
 }
 

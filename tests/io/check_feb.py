@@ -1,0 +1,182 @@
+#!/usr/bin/python3
+"""Structural check of a FEBio 4 model (.feb) as write_mesh writes it.
+
+No FEBio binary is packaged for Debian, so this checks what FEBio 4's reader requires of
+the sections frontmesh writes (FEBio 4 User's Manual, "Free format input"):
+  - root febio_spec version 4.0; sections Module, Control, Material, Mesh, MeshDomains in
+    that order (Output may follow);
+  - Module type solid with units; Control: analysis STATIC, time_steps > 0, step_size > 0,
+    a solver; every material has an id, a name, a type and numeric parameters;
+  - Mesh: node ids 1..n; every Elements part named, tet4, its element ids unique and its
+    nodes existing; every Surface face (tri3) references existing nodes and is a face of an
+    element, oriented out of it; NodeSet / ElementSet members exist (lists and a:b ranges);
+    names of parts, surfaces, sets unique; every SurfacePair names two existing surfaces;
+  - MeshDomains: every part has exactly one SolidDomain whose material exists, and every
+    domain names an existing part.
+Prints one "count NAME N" line per kind (for the caller to compare with the mesh) and
+exits 1 with the first problem found.
+
+usage: check_feb.py MESH.feb
+"""
+import sys
+import xml.etree.ElementTree as ET
+
+
+def fail(message):
+    print("FAIL:", message)
+    sys.exit(1)
+
+
+def ids(text, what):
+    """Members of a FEBio list: "1,2,5:9" (first:last[:step])."""
+    out = []
+    for item in (text or "").split(","):
+        item = item.strip()
+        if not item:
+            continue
+        parts = [int(p) for p in item.split(":")]
+        if len(parts) == 1:
+            out.append(parts[0])
+        elif len(parts) in (2, 3):
+            step = parts[2] if len(parts) == 3 else 1
+            if step <= 0 or parts[1] < parts[0]:
+                fail(f"{what}: bad range {item}")
+            out.extend(range(parts[0], parts[1] + 1, step))
+        else:
+            fail(f"{what}: bad list item {item}")
+    return out
+
+
+def numbers(text, count, what):
+    values = [float(v) for v in (text or "").split(",")]
+    if len(values) != count:
+        fail(f"{what}: {len(values)} values, expected {count}")
+    return values
+
+
+def main(path):
+    root = ET.parse(path).getroot()
+    if root.tag != "febio_spec" or root.get("version") != "4.0":
+        fail("root is not <febio_spec version=\"4.0\">")
+    order = [child.tag for child in root]
+    required = ["Module", "Control", "Material", "Mesh", "MeshDomains"]
+    if [t for t in order if t in required] != required:
+        fail(f"sections {order}, expected {required} in this order")
+
+    module = root.find("Module")
+    if module.get("type") != "solid" or not (module.findtext("units") or "").strip():
+        fail("Module is not type solid with units")
+    control = root.find("Control")
+    if (control.findtext("analysis") or "").strip() != "STATIC":
+        fail("Control/analysis is not STATIC")
+    if int(control.findtext("time_steps") or 0) <= 0:
+        fail("Control/time_steps missing or not positive")
+    if float(control.findtext("step_size") or 0) <= 0:
+        fail("Control/step_size missing or not positive")
+    if control.find("solver") is None:
+        fail("Control has no solver")
+
+    materials = {}
+    for m in root.findall("Material/material"):
+        name, mid, mtype = m.get("name"), m.get("id"), m.get("type")
+        if not name or not mid or not mtype:
+            fail(f"material {name} lacks a name, id or type")
+        if name in materials:
+            fail(f"material {name} defined twice")
+        for p in m:
+            float(p.text)
+        materials[name] = mid
+    if len(set(materials.values())) != len(materials):
+        fail("material ids repeat")
+
+    mesh = root.find("Mesh")
+    nodes = set()
+    for nd in mesh.findall("Nodes/node"):
+        numbers(nd.text, 3, f"node {nd.get('id')}")
+        nodes.add(int(nd.get("id")))
+    if nodes != set(range(1, len(nodes) + 1)):
+        fail("node ids are not 1..n")
+    parts, elements, outward = {}, set(), {}
+    cycles = ((1, 2, 3), (0, 3, 2), (0, 1, 3), (0, 2, 1))  # tet4 faces, normals outwards
+    for part in mesh.findall("Elements"):
+        name = part.get("name")
+        if not name or part.get("type") != "tet4":
+            fail(f"Elements {name}: needs a name and type tet4")
+        if name in parts:
+            fail(f"part {name} defined twice")
+        parts[name] = len(part)
+        for e in part:
+            eid = int(e.get("id"))
+            if eid in elements:
+                fail(f"element id {eid} repeats")
+            elements.add(eid)
+            q = [int(v) for v in numbers(e.text, 4, f"element {eid}")]
+            if not set(q) <= nodes:
+                fail(f"element {eid} references a missing node")
+            for c in cycles:
+                a, b, d = (q[k] for k in c)
+                for rot in ((a, b, d), (b, d, a), (d, a, b)):
+                    outward[rot] = eid
+    names = set(parts)
+    surfaces = {}
+    for s in mesh.findall("Surface"):
+        name = s.get("name")
+        if not name or name in names:
+            fail(f"surface {name}: no name, or the name is taken")
+        names.add(name)
+        for f in s:
+            if f.tag != "tri3":
+                fail(f"surface {name}: face type {f.tag}")
+            tri = tuple(int(v) for v in numbers(f.text, 3, f"surface {name}"))
+            if not set(tri) <= nodes:
+                fail(f"surface {name}: face {f.get('id')} references a missing node")
+            if tri not in outward:
+                fail(f"surface {name}: face {tri} is not an outward element face")
+        surfaces[name] = len(s)
+        if not len(s):
+            fail(f"surface {name} is empty")
+    for tag, members, what in (("NodeSet", nodes, "node"), ("ElementSet", elements, "element")):
+        for s in mesh.findall(tag):
+            name = s.get("name")
+            if not name or name in names:
+                fail(f"{tag} {name}: no name, or the name is taken")
+            names.add(name)
+            listed = ids(s.text, f"{tag} {name}")
+            if not listed or not set(listed) <= members:
+                fail(f"{tag} {name}: empty or lists a missing {what}")
+            print("count", tag, name, len(listed))
+    pairs = 0
+    for p in mesh.findall("SurfacePair"):
+        primary, secondary = p.findtext("primary"), p.findtext("secondary")
+        if primary not in surfaces or secondary not in surfaces or primary == secondary:
+            fail(f"SurfacePair {p.get('name')}: {primary} / {secondary} are not two surfaces")
+        pairs += 1
+
+    domains = {}
+    for d in root.findall("MeshDomains/*"):
+        if d.tag != "SolidDomain":
+            fail(f"domain {d.get('name')}: {d.tag}, expected SolidDomain")
+        name, mat = d.get("name"), d.get("mat")
+        if name not in parts:
+            fail(f"SolidDomain {name} names no part")
+        if name in domains:
+            fail(f"part {name} has two domains")
+        if mat not in materials:
+            fail(f"SolidDomain {name}: material {mat} does not exist")
+        domains[name] = mat
+    for name in parts:
+        if name not in domains:
+            fail(f"part {name} has no SolidDomain")
+
+    print("count nodes", len(nodes))
+    print("count elements", len(elements))
+    for name, n in sorted(parts.items()):
+        print("count part", name, n)
+    for name, n in sorted(surfaces.items()):
+        print("count surface", name, n)
+    print("count pairs", pairs)
+    print("OK")
+
+
+if __name__ == "__main__":
+    main(sys.argv[1])
