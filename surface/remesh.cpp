@@ -469,6 +469,7 @@ bool mesh_round(int round, Rounds& r, RoundResult& result) {
     if (r.params.check_self_intersections &&
         mend_self_intersections(out, front_xyz, patch_of, round, r.retry, ctx))
         return false;
+    if (check_unmeshable_wedges(out, patch_of, round, r.retry, ctx)) return false;
     if (!regions.rescaled.empty()) {
         ctx.warn("remesh: regions" + regions.rescaled +
                  " changed their volume more than remesh.max_volume_change_percent; meshing them "

@@ -85,33 +85,6 @@ void check_inverted_parts(const core::SurfaceNetwork& out,
     result.again = true;
 }
 
-// Region wedges under kUnmeshableWedgeDeg at junction edges (thin_region_wedges): every
-// tet of the region on such an edge is as flat, and one of zero angle (the smoothing closed a
-// region on itself where labels meet at a point, torture seed 67: 0.0 and 8.5e-7 degrees)
-// has none that is not degenerate. Meshed again finer there, or with the background's
-// triangles (on_bad_faces).
-void check_unmeshable_wedges(const core::SurfaceNetwork& out,
-                             const std::vector<std::int32_t>& face_patch, bool last_round,
-                             int round, RetryPolicy& retry, core::StageContext& ctx,
-                             RegionChecks& result) {
-    const std::vector<ThinWedge> wedges = thin_region_wedges(out, kUnmeshableWedgeDeg);
-    if (wedges.empty()) return;
-    const ThinWedge& first = wedges.front();
-    if (last_round)
-        FM_THROW(GeometryError, "remesh: a region closes on itself at the edge near " +
-                                    point_text(first.midpoint) + " (its wedge there is " +
-                                    std::to_string(first.wedge_deg) +
-                                    " degrees); try a smaller remesh.edge_length there");
-    std::vector<std::int32_t> faces;
-    for (const ThinWedge& w : wedges) faces.insert(faces.end(), w.faces.begin(), w.faces.end());
-    retry.on_bad_faces(faces, out, face_patch, round);
-    ctx.warn("remesh: " + std::to_string(wedges.size()) + " region wedge(s) under " +
-             std::to_string(kUnmeshableWedgeDeg) + " degrees (e.g. near " +
-             point_text(first.midpoint) + "); meshing again finer there");
-    retry.note(std::to_string(wedges.size()) + " region wedges were flat");
-    result.again = true;
-}
-
 }  // namespace
 
 RegionChecks check_regions(const core::SurfaceNetwork& bg, const core::SurfaceNetwork& out,
@@ -176,8 +149,6 @@ RegionChecks check_regions(const core::SurfaceNetwork& bg, const core::SurfaceNe
         }
     }
     if (!result.again) check_inverted_parts(out, face_patch, last_round, round, retry, ctx, result);
-    if (!result.again)
-        check_unmeshable_wedges(out, face_patch, last_round, round, retry, ctx, result);
     if (!result.rescaled.empty()) {
         retry.update_vertex_scales();
         retry.note("regions" + result.rescaled + " changed their volume");
@@ -227,6 +198,32 @@ bool mend_self_intersections(core::SurfaceNetwork& out, const std::vector<double
                  ", patches " + std::to_string(face_patch[std::size_t(pairs[0].first)]) + " and " +
                  std::to_string(face_patch[std::size_t(pairs[0].second)]) +
                  "); try a smaller remesh.edge_length there");
+}
+
+// Region wedges under kUnmeshableWedgeDeg at junction edges (thin_region_wedges): every
+// tet of the region on such an edge is as flat, and one of zero angle (the smoothing closed a
+// region on itself where labels meet at a point, torture seed 67: 0.0 and 8.5e-7 degrees)
+// has none that is not degenerate. Meshed again finer there, or with the background's
+// triangles (on_bad_faces).
+bool check_unmeshable_wedges(const core::SurfaceNetwork& out,
+                             const std::vector<std::int32_t>& face_patch, int round,
+                             RetryPolicy& retry, core::StageContext& ctx) {
+    const std::vector<ThinWedge> wedges = thin_region_wedges(out, kUnmeshableWedgeDeg);
+    if (wedges.empty()) return false;
+    const ThinWedge& first = wedges.front();
+    if (round + 1 >= RetryPolicy::kRounds)
+        FM_THROW(GeometryError, "remesh: a region closes on itself at the edge near " +
+                                    point_text(first.midpoint) + " (its wedge there is " +
+                                    std::to_string(first.wedge_deg) +
+                                    " degrees); try a smaller remesh.edge_length there");
+    std::vector<std::int32_t> faces;
+    for (const ThinWedge& w : wedges) faces.insert(faces.end(), w.faces.begin(), w.faces.end());
+    retry.on_bad_faces(faces, out, face_patch, round);
+    ctx.warn("remesh: " + std::to_string(wedges.size()) + " region wedge(s) under " +
+             std::to_string(kUnmeshableWedgeDeg) + " degrees (e.g. near " +
+             point_text(first.midpoint) + "); meshing again finer there");
+    retry.note(std::to_string(wedges.size()) + " region wedges were flat");
+    return true;
 }
 
 RemeshResult finished_result(const SizeField& size, core::SurfaceNetwork out,

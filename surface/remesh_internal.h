@@ -210,6 +210,13 @@ PatchMesh coarsen_patch(const BackgroundPatch& patch, PatchMesh mesh, std::size_
 /// zero none is valid (degrees).
 constexpr double kUnmeshableWedgeDeg = 1.0;
 
+/// Region wedges of `out` under kUnmeshableWedgeDeg (after the crossings are mended): shrink
+/// sites or background triangles at their faces (RetryPolicy::on_bad_faces) and true (mesh
+/// again), or in the last round GeometryError naming the place; false when there are none.
+bool check_unmeshable_wedges(const core::SurfaceNetwork& out,
+                             const std::vector<std::int32_t>& face_patch, int round,
+                             RetryPolicy& retry, core::StageContext& ctx);
+
 struct RegionChecks {
     bool again = false;    ///< a region is not a closed 2-manifold, or a part of it turned
                            ///< inside out: mesh again finer there
@@ -217,7 +224,7 @@ struct RegionChecks {
 };
 
 /// Every region of `out` must be a closed, oriented 2-manifold with no part turned inside out
-/// and no wedge under kUnmeshableWedgeDeg (else shrink sites or background triangles and again, or
+/// (else shrink sites or background triangles and again, or
 /// in the last round GeometryError naming the place) and keep its enclosed volume within
 /// remesh.max_volume_change_percent (else its patches are refined, or in the last round a
 /// warning). Counters `remesh.volume_change_percent.region_*` go to ctx.

@@ -70,10 +70,11 @@ double region_wedge_deg(const core::SurfaceNetwork& s, core::Label region, std::
     return convex ? theta : 360.0 - theta;
 }
 
-// Smallest wedge of any region with exactly two of `faces` (the faces on edge (a, b)).
+// Smallest wedge of any region with exactly two of `faces` (the faces on edge (a, b)); with
+// `folds`, a wedge w counts as min(w, 360 - w) (thin_region_wedges: faces on each other).
 template <class Faces>
 double smallest_edge_wedge(const core::SurfaceNetwork& s, std::int32_t a, std::int32_t b,
-                           const Faces& faces) {
+                           const Faces& faces, bool folds = false) {
     double smallest = 360.0;
     const std::size_t n = faces.size();
     for (std::size_t i = 0; i < n; ++i)
@@ -91,11 +92,12 @@ double smallest_edge_wedge(const core::SurfaceNetwork& s, std::int32_t a, std::i
                 if (j != i) other = faces[j];
             }
             if (uses != 2 || seen_before) continue;  // each region once
-            // The other regions at the edge share 360 - w, so min(w, 360 - w) leaves the
-            // smallest wedge as it is; where two faces lie on each other (a region closed on
-            // itself, torture seed 67) w comes out as 0 or 360 by rounding, and this takes 0.
+            // With `folds`: the other regions at the edge share 360 - w, so min(w, 360 - w)
+            // leaves a consistent smallest wedge as it is; where two faces lie on each other
+            // (a region closed on itself, torture seed 67) w comes out as 0 or 360 by
+            // rounding, and this takes 0.
             const double w = region_wedge_deg(s, r, a, b, faces[i], other);
-            smallest = std::min(smallest, std::min(w, 360.0 - w));
+            smallest = std::min(smallest, folds ? std::min(w, 360.0 - w) : w);
         }
     return smallest;
 }
@@ -907,7 +909,7 @@ std::vector<ThinWedge> thin_region_wedges(const core::SurfaceNetwork& surface, d
         const std::vector<std::int32_t> faces(et.edge_faces.begin() + std::ptrdiff_t(b),
                                               et.edge_faces.begin() + std::ptrdiff_t(b + n));
         const auto [v0, v1] = et.vertices[e];
-        const double w = smallest_edge_wedge(surface, v0, v1, faces);
+        const double w = smallest_edge_wedge(surface, v0, v1, faces, true);
         if (w < below_deg) {
             std::vector<std::int32_t> sorted = faces;
             std::sort(sorted.begin(), sorted.end());

@@ -67,7 +67,8 @@ struct ThinWedge {
     std::vector<std::int32_t> faces;  ///< the faces at the edge, increasing
 };
 
-/// Junction edges of `surface` with a region wedge under `below_deg`, in edge order.
+/// Junction edges of `surface` with a region wedge under `below_deg`, in edge order. A wedge w
+/// counts as min(w, 360 - w): two faces lying on each other give 0 or 360 by rounding.
 std::vector<ThinWedge> thin_region_wedges(const core::SurfaceNetwork& surface, double below_deg);
 
 /// A spike tip: a vertex T with exactly three faces (T, a, b), (T, b, c), (T, c, a) of one
