@@ -47,10 +47,14 @@ std::string point_text(const Eigen::Vector3d& p);
 ///     h(x, f) = field(x, f) * shrink(x) * volume_scale(f)        (size(); patches)
 ///     h(v)    = field(v)    * shrink(x_v) * volume_scale(v)      (vertex_size(); curves)
 ///
-/// - shrink(x): the product over shrink sites (c, r) of 1/2 within r of c, rising linearly
-///   to 1 at 2r, never below 1/8. Sites are added where a patch's front stalled (r = 4 h),
-///   where a region was not a closed 2-manifold (r = 2 h at the edge) and where faces
-///   crossed after smoothing (r = 2 h at each face), h = field at the place.
+/// - shrink(x): over the rounds that added shrink sites, the product of each round's
+///   smallest factor at x, never below 1/8; a site (c, r) gives 1/2 within r of c, rising
+///   linearly to 1 at 2r. Sites are added where a patch's front stalled (r = 4 h), where a
+///   region was not a closed 2-manifold (r = 2 h at the edge) and where faces crossed after
+///   smoothing (r = 2 h at each face), h = field at the place. Sites of one round do not
+///   compound: the several faces of one crossing, or crossings side by side, halve the size
+///   once per round (torture seed 136: eight overlapping sites of one round cut a 5 mm
+///   patch of a thin layer to 1/8 and its tiny faces then left tetra no closable front).
 /// - volume_scale(f): per background face, multiplied by clamp(0.9 sqrt(limit / change),
 ///   0.5, 0.9) on the patches of a region whose enclosed volume changed by more than
 ///   remesh.max_volume_change_percent (chords lose volume as h^2), and by 1/2 on the
@@ -80,7 +84,8 @@ public:
     double size(const Eigen::Vector3d& x, std::int32_t face) const;
     /// Target size (mm) at background vertex v, every multiplier applied (curve points).
     double vertex_size(std::int32_t v) const;
-    /// Product of the shrink sites' factors at x, in [1/8, 1].
+    /// Product over rounds of the smallest factor of the round's shrink sites at x, in
+    /// [1/8, 1].
     double shrink(const Eigen::Vector3d& x) const;
     /// size() as the front's SizeFunction (refers to this policy).
     SizeFunction size_function() const;
@@ -130,8 +135,14 @@ private:
 
     const core::SurfaceNetwork& background_;
     const SizeField& field_;
-    std::vector<std::pair<Eigen::Vector3d, double>> shrink_sites_;  // centre, radius (mm)
-    std::size_t sites_used_ = 0;  // sites in force when the patches were last meshed
+    struct ShrinkSite {
+        Eigen::Vector3d centre;
+        double radius;   // mm
+        int generation;  // mark_sizes_used() calls before it was added: its round
+    };
+    std::vector<ShrinkSite> shrink_sites_;  // in increasing generation
+    std::size_t sites_used_ = 0;            // sites in force when the patches were last meshed
+    int generation_ = 0;                    // mark_sizes_used() calls so far
     std::vector<double> face_scale_, vertex_scale_;  // volume scales
     std::vector<std::uint8_t> rescaled_;             // per patch, since mark_sizes_used()
     std::vector<int> patch_stalls_, patch_crossings_;

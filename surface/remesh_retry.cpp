@@ -22,12 +22,19 @@ RetryPolicy::RetryPolicy(const core::SurfaceNetwork& background, const SizeField
       copy_patch_(patches, 0) {}
 
 double RetryPolicy::shrink(const Eigen::Vector3d& x) const {
-    double scale = 1.0;
-    for (const auto& [c, r] : shrink_sites_) {
-        const double d = (x - c).norm();
-        if (d < 2.0 * r) scale *= d <= r ? 0.5 : 0.5 + 0.5 * (d - r) / r;
+    double scale = 1.0, round_factor = 1.0;
+    int generation = -1;
+    for (const ShrinkSite& site : shrink_sites_) {
+        if (site.generation != generation) {  // a new round's sites: the last round's factor
+            scale *= round_factor;
+            round_factor = 1.0;
+            generation = site.generation;
+        }
+        const double d = (x - site.centre).norm(), r = site.radius;
+        if (d < 2.0 * r)
+            round_factor = std::min(round_factor, d <= r ? 0.5 : 0.5 + 0.5 * (d - r) / r);
     }
-    return std::max(scale, 0.125);
+    return std::max(scale * round_factor, 0.125);
 }
 
 double RetryPolicy::size(const Eigen::Vector3d& x, std::int32_t face) const {
@@ -45,7 +52,8 @@ SizeFunction RetryPolicy::size_function() const {
 bool RetryPolicy::has_new_sizes(std::size_t p, const core::AdtBox& box) const {
     if (rescaled_[p]) return true;
     for (std::size_t k = sites_used_; k < shrink_sites_.size(); ++k) {
-        const auto& [c, r] = shrink_sites_[k];
+        const Eigen::Vector3d& c = shrink_sites_[k].centre;
+        const double r = shrink_sites_[k].radius;
         double d2 = 0.0;  // squared distance from c to the box
         for (int i = 0; i < 3; ++i) {
             const double lo = box.lo[i], hi = box.hi[i];
@@ -59,11 +67,12 @@ bool RetryPolicy::has_new_sizes(std::size_t p, const core::AdtBox& box) const {
 
 void RetryPolicy::mark_sizes_used() {
     sites_used_ = shrink_sites_.size();
+    ++generation_;
     std::fill(rescaled_.begin(), rescaled_.end(), 0);
 }
 
 void RetryPolicy::add_shrink_site(const Eigen::Vector3d& centre, double radius_in_h) {
-    shrink_sites_.emplace_back(centre, radius_in_h * field_.at(centre, -1));
+    shrink_sites_.push_back({centre, radius_in_h * field_.at(centre, -1), generation_});
 }
 
 void RetryPolicy::on_stall(std::size_t p, const Eigen::Vector3d& place, int round) {
@@ -140,7 +149,7 @@ std::string RetryPolicy::round_summary(int round) {
     s << "remesh: round " << round + 1 << " of at most " << kRounds << " ("
       << (triggers_.empty() ? "first round" : triggers_) << "): h = size field x shrink ("
       << shrink_sites_.size()
-      << " sites, x0.5 within r, at least x0.125) x volume scale (smallest x" << min_volume_scale
+      << " sites, x0.5 within r per round, at least x0.125) x volume scale (smallest x" << min_volume_scale
       << ") [x0.85 per failed attempt of a patch]; " << copied
       << " patch(es) keep their background triangles";
     triggers_.clear();

@@ -216,8 +216,14 @@ TEST_CASE("the retry policy owns every size multiplier of the rounds", "[remesh]
     CHECK(retry.has_new_sizes(0, whole));
     retry.mark_sizes_used();
     CHECK(!retry.has_new_sizes(0, whole));
-    // Sites multiply, never below 1/8.
+    // Sites of one round do not compound (torture seed 136); rounds multiply, never below
+    // 1/8.
     retry.on_open_edges({place, place, place, place});
+    CHECK(retry.shrink(place) == 0.25);
+    for (int round = 0; round < 3; ++round) {
+        retry.mark_sizes_used();
+        retry.on_open_edges({place, place});
+    }
     CHECK(retry.shrink(place) == 0.125);
     // A second stall of the same patch: it keeps its background triangles, no new site.
     retry.mark_sizes_used();
