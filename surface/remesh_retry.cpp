@@ -149,8 +149,8 @@ std::string RetryPolicy::round_summary(int round) {
     s << "remesh: round " << round + 1 << " of at most " << kRounds << " ("
       << (triggers_.empty() ? "first round" : triggers_) << "): h = size field x shrink ("
       << shrink_sites_.size()
-      << " sites, x0.5 within r per round, at least x0.125) x volume scale (smallest x" << min_volume_scale
-      << ") [x0.85 per failed attempt of a patch]; " << copied
+      << " sites, x0.5 within r per round, at least x0.125) x volume scale (smallest x"
+      << min_volume_scale << ") [x0.85 per failed attempt of a patch]; " << copied
       << " patch(es) keep their background triangles";
     triggers_.clear();
     return s.str();
