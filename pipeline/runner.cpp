@@ -25,6 +25,7 @@
 #include "io/image_reader.h"
 #include "io/label_table.h"
 #include "io/mesh_io.h"
+#include "io/split_interfaces.h"
 #include "pipeline/core/error.h"
 #include "pipeline/core/surface_check.h"
 #include "pipeline/diagnostics.h"
@@ -843,6 +844,7 @@ std::string Run::results_key() const {
     Hash h;
     h.add(hashes_[last_]);
     h.add(recipe_.output.binary ? "binary" : "text");
+    h.add(io::split_interfaces_text(recipe_.output.split_interfaces));
     for (const auto& [label, name] : names_.names()) {
         h.add(std::to_string(label));
         h.add(name);
@@ -868,15 +870,26 @@ void Run::write_exports(const fs::path& result, const fs::path& last_checkpoint,
     const core::TetMesh mesh = std::holds_alternative<core::TetMesh>(data_)
                                    ? std::get<core::TetMesh>(std::move(data_))
                                    : io::read_tet_mesh(last_checkpoint.string());
-    const io::FieldStrings fields = {
+    io::FieldStrings fields = {
         {"frame", frame_}, {"stage", stages_[last_].name}, {"frontmesh_version", version()}};
+    // Split interfaces (output.split_interfaces) in every export and mesh_surface.vtp, whose
+    // point array `node` indexes mesh.vtu; the report looks at the mesh as meshed.
+    const io::SplitInterfaces& split = recipe_.output.split_interfaces;
+    std::optional<core::TetMesh> split_copy;
+    if (!split.is_none() && (!exports.empty() || wanted(surface))) {
+        split_copy = io::split_interfaces(mesh, split);
+        fields["split_interfaces"] = io::split_interfaces_text(split);
+        info("split interfaces " + io::split_interfaces_text(split) + ": " +
+             std::to_string(split_copy->node_count() - mesh.node_count()) + " node copies");
+    }
+    const core::TetMesh& split_mesh = split_copy ? *split_copy : mesh;
     for (const auto& [file, format] : exports) {
-        io::write_mesh(mesh, file.string(), format, names_, fields, {recipe_.output.binary});
+        io::write_mesh(split_mesh, file.string(), format, names_, fields, {recipe_.output.binary});
         committed(file);
         info("wrote " + file.string());
     }
     if (wanted(surface)) {
-        io::write_mesh_surface(mesh, surface.string(), names_, fields);
+        io::write_mesh_surface(split_mesh, surface.string(), names_, fields);
         committed(surface);
     }
     if (report) {
