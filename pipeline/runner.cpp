@@ -51,6 +51,11 @@ using StageData =
 // What a stage reads and writes; decides how checkpoints are read, written and reported.
 enum class Kind { Image, Surface, Tets };
 
+/// The ParaView collection of the checkpoints of one kind (README "Outputs").
+std::string pvd_file_name(Kind kind) {
+    return kind == Kind::Tets ? "run-volume.pvd" : "run-surface.pvd";
+}
+
 // What a stage function hands back: its result, and the extra per-point figures its
 // checkpoint carries.
 struct StageOutput {
@@ -949,13 +954,31 @@ ReportContext Run::report_context() const {
     return context;
 }
 
+// One ParaView collection per kind (issue 22): run-surface.pvd steps through the surface
+// checkpoints of this run (extract, repair, remesh), run-volume.pvd through its tet
+// checkpoints (tetra, refine), so that stepping never jumps from triangles to tets. Only
+// stages up to the last one of this run: later checkpoints of an earlier, longer run are
+// not this run's. A collection with nothing to show is removed, as is the mixed run.pvd
+// of earlier versions.
 void Run::write_pvd() {
-    std::vector<std::pair<std::string, std::string>> entries;
-    for (int i = entry_; i < static_cast<int>(stages_.size()); ++i)
-        if (fs::exists(out_.checkpoint(stages_[i])))
-            entries.emplace_back(fs::relative(out_.checkpoint(stages_[i]), out_.dir).string(),
-                                 stages_[i].name);
-    io::write_pvd((out_.dir / "run.pvd").string(), entries);
+    for (const Kind kind : {Kind::Surface, Kind::Tets}) {
+        std::vector<std::pair<std::string, std::string>> entries;
+        for (int i = entry_; i <= last_; ++i)
+            if (stages_[i].out == kind && fs::exists(out_.checkpoint(stages_[i])))
+                entries.emplace_back(fs::relative(out_.checkpoint(stages_[i]), out_.dir).string(),
+                                     stages_[i].name);
+        const fs::path pvd = out_.dir / pvd_file_name(kind);
+        if (!entries.empty()) {
+            io::write_pvd(pvd.string(), entries);
+        } else if (fs::exists(pvd)) {
+            fs::remove(pvd);
+            committed(pvd);
+        }
+    }
+    if (fs::exists(out_.dir / "run.pvd")) {
+        fs::remove(out_.dir / "run.pvd");
+        committed(out_.dir / "run.pvd");
+    }
 }
 
 void Run::write_summary(const std::string& status, const std::string& error) {
