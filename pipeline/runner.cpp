@@ -429,6 +429,7 @@ private:
     std::string input_json_;  // the image's metadata, until the folder exists to hold it
     std::optional<QualityHistograms> tetra_histograms_;  // kept for the quality report
     std::vector<core::TetFigures> figures_;              // of the last tet mesh a stage made
+    std::vector<fs::path> results_;  // the result files this run wrote or found up to date
 };
 
 int Run::index_of(const std::string& name, const char* flag) const {
@@ -831,6 +832,11 @@ std::string Run::write_results() {
         committed(result);
     }
     if (tet_result) write_exports(result, last_checkpoint, stale, ran_any);
+    results_ = files;
+    if (std::find(files.begin(), files.end(), out_.dir / "report.html") != files.end())
+        for (const char* svg : {"surface_skewness.svg", "tet_skewness.svg", "dihedral.svg",
+                                "min_dihedral.svg", "cross_section.svg"})
+            results_.push_back(out_.dir / svg);
     if (!stale.empty()) {
         for (const fs::path& file : files) record[file.filename().string()] = key;
         std::string text;
@@ -1026,17 +1032,19 @@ void Run::write_summary(const std::string& status, const std::string& error) {
         s << (r ? ", " : "") << "{\"label\": " << labels[r]
           << ", \"name\": " << (names_.has(labels[r]) ? json_quote(names_.name(labels[r])) : "null")
           << "}";
-    // What the folder holds now: the result files, then the checkpoints.
+    // What this run wrote or found up to date (issue 22): its result files, collections and
+    // log, and the checkpoints of its stages; not files of earlier runs that the folder
+    // still holds (an export of a format no longer asked for, a checkpoint of a later stage).
     s << "],\n  \"outputs\": [";
     std::vector<fs::path> files;
-    for (const fs::path& folder : {out_.dir, out_.dir / "checkpoints"})
-        if (fs::is_directory(folder))
-            for (const auto& entry : fs::directory_iterator(folder)) {
-                const std::string name = entry.path().filename().string();
-                if (entry.is_regular_file() && name[0] != '.' && name != "summary.json" &&
-                    (folder == out_.dir || entry.path().extension() == ".vtu"))
-                    files.push_back(entry.path());
-            }
+    auto add = [&](const fs::path& file) {
+        if (fs::is_regular_file(file) && std::find(files.begin(), files.end(), file) == files.end())
+            files.push_back(file);
+    };
+    for (const fs::path& file : results_) add(file);
+    for (const Kind kind : {Kind::Surface, Kind::Tets}) add(out_.dir / pvd_file_name(kind));
+    add(out_.dir / "frontmesh.log");
+    for (int i = entry_; i <= last_; ++i) add(out_.checkpoint(stages_[i]));
     std::sort(files.begin(), files.end());
     for (std::size_t f = 0; f < files.size(); ++f)
         s << (f ? ",\n    " : "\n    ")
