@@ -252,8 +252,12 @@ TEST_CASE("exports of a split mesh carry the copies and both sides as a pair",
     const std::string inp = slurp(dir + "/mesh.inp");
     CHECK_THAT(inp, Catch::Contains("*SURFACE, TYPE=ELEMENT, NAME=interface_Low_High\n"));
     CHECK_THAT(inp, Catch::Contains("*SURFACE, TYPE=ELEMENT, NAME=interface_High_Low\n"));
-    CHECK_THAT(inp, Catch::Contains("** split 100002 labels 1 2\n***TIE, NAME=T100002, "
-                                    "ADJUST=NO\n**interface_High_Low, interface_Low_High\n"));
+    CHECK_THAT(inp, Catch::Contains("** split 100002 labels 1 2\n*NSET, "
+                                    "NSET=interface_High_Low_SLAVE_NODES\n"));
+    CHECK_THAT(inp, Catch::Contains("*SURFACE, TYPE=NODE, NAME=interface_High_Low_SLAVE\n"
+                                    "interface_High_Low_SLAVE_NODES\n***TIE, NAME=T100002, "
+                                    "ADJUST=NO\n**interface_High_Low_SLAVE, "
+                                    "interface_Low_High\n"));
     CHECK_THAT(inp, !Catch::Contains("T100007"));  // 1|7 is not split
     // Read back: the same nodes, tets and regions.
     const core::TetMesh back = io::read_mesh(dir + "/mesh.inp");
