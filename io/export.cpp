@@ -531,6 +531,10 @@ std::vector<SurfaceGroup> surface_groups(const core::TetMesh& mesh, const LabelT
         g.name = g.lo == 0 ? surface_name("boundary", 0, g.hi, names)
                            : surface_name("interface", g.lo, g.hi, names);
         g.faces = std::move(faces);
+        g.split = !mesh.face_twin.empty() &&
+                  std::any_of(g.faces.begin(), g.faces.end(), [&](std::int32_t f) {
+                      return mesh.face_twin[static_cast<std::size_t>(f)] >= 0;
+                  });
         groups.push_back(std::move(g));
     }
     return groups;
@@ -539,6 +543,15 @@ std::vector<SurfaceGroup> surface_groups(const core::TetMesh& mesh, const LabelT
 std::string side_name(const SurfaceGroup& g, core::Label from, const LabelTable& names) {
     if (g.is_boundary() || from == g.lo) return g.name;
     return surface_name("interface", g.hi, g.lo, names);
+}
+
+std::vector<std::int32_t> side_faces(const core::TetMesh& mesh, const SurfaceGroup& g,
+                                     core::Label from) {
+    if (!g.split) return g.faces;
+    std::vector<std::int32_t> faces;
+    for (std::int32_t f : g.faces)
+        if (mesh.region_in[static_cast<std::size_t>(f)] == from) faces.push_back(f);
+    return faces;
 }
 
 void check_numeric_tags(const std::vector<RegionGroup>& regions,
@@ -581,10 +594,17 @@ std::vector<std::int32_t> face_nodes(const core::TetMesh& mesh,
 
 std::vector<FaceSides> face_tets(const core::TetMesh& mesh) {
     static constexpr int kFace[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
-    std::unordered_map<Key, std::int32_t, KeyHash> index;
+    // A face of a split interface (mesh.face_twin) is stored once per side and has only its
+    // `in` tet; both sides may have the same nodes (where every node of the face stays
+    // shared, io::split_interfaces), so a key holds up to two faces.
+    const bool split = !mesh.face_twin.empty();
+    std::unordered_map<Key, std::array<std::int32_t, 2>, KeyHash> index;
     index.reserve(mesh.face_count());
-    for (std::size_t f = 0; f < mesh.face_count(); ++f)
-        index.emplace(sorted_key(mesh.faces[f]), static_cast<std::int32_t>(f));
+    for (std::size_t f = 0; f < mesh.face_count(); ++f) {
+        const auto [it, added] =
+            index.emplace(sorted_key(mesh.faces[f]), std::array<std::int32_t, 2>{-1, -1});
+        it->second[added ? 0 : 1] = static_cast<std::int32_t>(f);
+    }
     std::vector<FaceSides> result(mesh.face_count());
     for (std::size_t t = 0; t < mesh.tet_count(); ++t)
         for (int k = 0; k < 4; ++k) {
@@ -592,12 +612,16 @@ std::vector<FaceSides> face_tets(const core::TetMesh& mesh) {
                 mesh.tets[t][kFace[k][0]], mesh.tets[t][kFace[k][1]], mesh.tets[t][kFace[k][2]]};
             const auto it = index.find(sorted_key(g));
             if (it == index.end()) continue;
-            const auto f = static_cast<std::size_t>(it->second);
-            const bool same = same_orientation(g, mesh.faces[f]);
-            if (same && mesh.region_in[f] == mesh.region[t])
-                result[f].in = {static_cast<std::int32_t>(t), k};
-            else if (!same && mesh.region_out[f] == mesh.region[t])
-                result[f].out = {static_cast<std::int32_t>(t), k};
+            for (const std::int32_t candidate : it->second) {
+                if (candidate < 0) continue;
+                const auto f = static_cast<std::size_t>(candidate);
+                const bool same = same_orientation(g, mesh.faces[f]);
+                if (same && mesh.region_in[f] == mesh.region[t])
+                    result[f].in = {static_cast<std::int32_t>(t), k};
+                else if (!same && mesh.region_out[f] == mesh.region[t] &&
+                         !(split && mesh.face_twin[f] >= 0))
+                    result[f].out = {static_cast<std::int32_t>(t), k};
+            }
         }
     return result;
 }

@@ -21,6 +21,10 @@
 //     keep one group per element (a Gmsh element in two physical groups is duplicated by
 //     FEniCSx's gmshio and by MSH 2.2): there the whole mesh is every region and the whole
 //     outer boundary is every surface of tag below kTagBase.
+// A mesh split by io::split_interfaces (mesh.twin non-empty) is written with its copies as
+// nodes of their own and each side of a split interface as its own surface: VTU point
+// array `twin`, Gmsh view "twin" ($NodeData), Abaqus node-based slave surface and a
+// commented *TIE / *CONTACT PAIR per split interface, FEBio SurfacePair on the two sides.
 // Names come from the LabelTable (sanitized), "region_<id>" without one. Node and element
 // numbers in the files are 1-based in TetMesh order; tets keep VTK node order (positive
 // volume), which is also Gmsh's, MEDIT's, Abaqus C3D4's and FEBio tet4's. Abaqus numbers

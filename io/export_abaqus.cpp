@@ -76,6 +76,54 @@ std::vector<std::string> split_commas(const std::string& line) {
     return out;
 }
 
+/// For each interface split by output.split_interfaces (its sides are surfaces on their
+/// own nodes): the node set "<slave>_SLAVE_NODES" and node-based surface "<slave>_SLAVE"
+/// of the slave side's nodes that are not nodes of the master side, then a *TIE and a
+/// *CONTACT PAIR skeleton, commented out ("***TIE" is the comment "**" before "*TIE"): the
+/// mesh file stays a mesh that users *INCLUDE, and they choose. Slave = the larger label's
+/// side, master = the smaller's. The tie's slave is node-based because the nodes the two
+/// sides still share (where the interface meets an unsplit one) cannot be tied to
+/// themselves (CalculiX: "zero coefficient on the dependent side"). Both skeletons are
+/// accepted by CalculiX 2.20 once uncommented (the tie in
+/// tests/pipeline/test_solver_exports.cpp).
+void write_split_pairs(TextOut& out, const core::TetMesh& mesh,
+                       const std::vector<SurfaceGroup>& surfaces, const LabelTable& names) {
+    bool any = false;
+    for (const auto& g : surfaces) {
+        if (!g.split) continue;
+        if (!any)
+            out << "** Split interfaces (output.split_interfaces): the two sides are surfaces on "
+                   "their own\n"
+                   "** nodes (twins at equal coordinates). Uncomment (remove \"**\" before "
+                   "\"*\") one of the\n"
+                   "** pairs below, or both sides move apart freely. *CONTACT PAIR needs your "
+                   "own\n"
+                   "** *SURFACE INTERACTION; a node in two ties (a curve where split "
+                   "interfaces meet)\n"
+                   "** must be slave in only one of them.\n";
+        any = true;
+        const std::string master = abaqus_name(side_name(g, g.lo, names), g, g.lo, "");
+        const std::string slave = abaqus_name(side_name(g, g.hi, names), g, g.hi, "");
+        const std::string tied = abaqus_name(side_name(g, g.hi, names), g, g.hi, "_SLAVE");
+        const auto master_nodes = face_nodes(mesh, side_faces(mesh, g, g.lo));
+        std::vector<std::int32_t> slave_nodes;
+        for (std::int32_t v : face_nodes(mesh, side_faces(mesh, g, g.hi)))
+            if (!std::binary_search(master_nodes.begin(), master_nodes.end(), v))
+                slave_nodes.push_back(v);
+        out << "** split " << g.tag << " labels " << g.lo << ' ' << g.hi << '\n';
+        if (!slave_nodes.empty()) {
+            out << "*NSET, NSET=" << abaqus_name(side_name(g, g.hi, names), g, g.hi, "_SLAVE_NODES")
+                << '\n';
+            write_id_lines(out, slave_nodes);
+            out << "*SURFACE, TYPE=NODE, NAME=" << tied << '\n'
+                << abaqus_name(side_name(g, g.hi, names), g, g.hi, "_SLAVE_NODES") << '\n';
+            out << "***TIE, NAME=T" << g.tag << ", ADJUST=NO\n**" << tied << ", " << master << '\n';
+        }
+        out << "***CONTACT PAIR, INTERACTION=<your interaction>, TYPE=SURFACE TO SURFACE\n**"
+            << slave << ", " << master << '\n';
+    }
+}
+
 }  // namespace
 
 void write_abaqus(const core::TetMesh& mesh, const std::string& path, const LabelTable& names) {
@@ -159,6 +207,7 @@ void write_abaqus(const core::TetMesh& mesh, const std::string& path, const Labe
             out << "*SURFACE, TYPE=ELEMENT, NAME=boundary\n";
             for (const auto& line : outer_sets) out << line << '\n';
         }
+        write_split_pairs(out, mesh, surfaces, names);
         out.close();
     });
 }

@@ -74,6 +74,7 @@ struct SurfaceGroup {
     std::int64_t tag = 0;
     std::string name;                 ///< boundary_<hi> / interface_<lo>_<hi>
     std::vector<std::int32_t> faces;  ///< indices into mesh.faces, increasing
+    bool split = false;  ///< an interface split by io::split_interfaces (faces once per side)
     bool is_boundary() const { return lo == 0; }
 };
 std::vector<SurfaceGroup> surface_groups(const core::TetMesh& mesh, const LabelTable& names);
@@ -82,6 +83,11 @@ std::vector<SurfaceGroup> surface_groups(const core::TetMesh& mesh, const LabelT
 /// "interface_<from>_<other>" (the name of an interface as seen from one region), or
 /// g.name for a boundary.
 std::string side_name(const SurfaceGroup& g, core::Label from, const LabelTable& names);
+
+/// The faces of `g` seen from region `from` (g.lo or g.hi): of a split interface, those of
+/// from's side (region_in == from); otherwise all of g.faces.
+std::vector<std::int32_t> side_faces(const core::TetMesh& mesh, const SurfaceGroup& g,
+                                     core::Label from);
 
 /// The region labels of the tets, increasing, and the tets of each (indices, increasing).
 struct RegionGroup {

@@ -117,8 +117,9 @@ void write_febio(const core::TetMesh& mesh, const std::string& path, const Label
                 write_surface(out, g.name, g.faces, 0);
                 outer.insert(outer.end(), g.faces.begin(), g.faces.end());
             } else {
-                write_surface(out, side_name(g, g.lo, names), g.faces, g.lo);
-                write_surface(out, side_name(g, g.hi, names), g.faces, g.hi);
+                // A split interface: each side its own faces on its own nodes.
+                write_surface(out, side_name(g, g.lo, names), side_faces(mesh, g, g.lo), g.lo);
+                write_surface(out, side_name(g, g.hi, names), side_faces(mesh, g, g.hi), g.hi);
             }
             out << "\t\t<NodeSet name=\"" << g.name << "_NODES\">";
             write_ids(out, face_nodes(mesh, g.faces));
@@ -134,7 +135,9 @@ void write_febio(const core::TetMesh& mesh, const std::string& path, const Label
         }
         // The two sides of each interface (the smaller label's side primary), for a tied or
         // contact interface in a Contact section: <contact type="tied-elastic"
-        // surface_pair="interface_X_Y_PAIR">.
+        // surface_pair="interface_X_Y_PAIR">. On an interface split by
+        // output.split_interfaces the sides share no node (but where the interface meets
+        // an unsplit one), so the pair is what holds them together, or lets them slide.
         for (const auto& g : surfaces) {
             if (g.is_boundary()) continue;
             out << "\t\t<SurfacePair name=\"" << g.name << "_PAIR\">\n\t\t\t<primary>"

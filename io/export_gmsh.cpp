@@ -146,6 +146,20 @@ void write_bbox(MshOut& out, const core::TetMesh& mesh, const Elements& elements
 
 }  // namespace
 
+/// After io::split_interfaces: the view "twin" ($NodeData, one value per node: the tag of
+/// the node it is a copy of, its own for a node that is not a copy), which gmsh shows and
+/// meshio reads as point data. Binary records are int32 tag + float64 (gmsh's and meshio's
+/// reading). Nothing for a mesh without split interfaces.
+void write_twin_node_data(TextOut& text, MshOut& out, const core::TetMesh& mesh) {
+    if (mesh.twin.empty()) return;
+    text << "$NodeData\n1\n\"twin\"\n1\n0\n3\n0\n1\n" << mesh.node_count() << '\n';
+    for (std::size_t v = 0; v < mesh.node_count(); ++v)
+        out.integer(static_cast<std::int64_t>(v) + 1)
+            .real(static_cast<double>(mesh.twin[v]) + 1.0)
+            .end_record();
+    out.end_section("$EndNodeData");
+}
+
 void write_msh41(const core::TetMesh& mesh, const std::string& path, const LabelTable& names,
                  bool binary) {
     const auto regions = region_groups(mesh, names);
@@ -278,6 +292,7 @@ void write_msh41(const core::TetMesh& mesh, const std::string& path, const Label
             }
         }
         out.end_section("$EndElements");
+        write_twin_node_data(text, out, mesh);
         text.close();
     });
 }
@@ -316,6 +331,8 @@ void write_msh22(const core::TetMesh& mesh, const std::string& path, const Label
                 << ' ' << tri[0] + 1 << ' ' << tri[1] + 1 << ' ' << tri[2] + 1 << '\n';
         }
         out << "$EndElements\n";
+        MshOut data(out, false);
+        write_twin_node_data(out, data, mesh);
         out.close();
     });
 }

@@ -1036,7 +1036,19 @@ vtkSmartPointer<vtkUnstructuredGrid> tet_grid(const core::TetMesh& mesh, const F
         grid->GetPointData()->AddArray(level);
     }
 
+    // Split interfaces (io::split_interfaces): `twin` says which node each one is a copy of;
+    // the faces' pairing travels with them.
+    if (!mesh.twin.empty()) {
+        FM_CHECK(mesh.twin.size() == nn && mesh.face_twin.size() == nf);
+        vtkNew<vtkIntArray> twin;
+        twin->SetName("twin");
+        twin->SetNumberOfTuples(static_cast<vtkIdType>(nn));
+        std::copy(mesh.twin.begin(), mesh.twin.end(), twin->GetPointer(0));
+        grid->GetPointData()->AddArray(twin);
+    }
     vtkFieldData* fd = grid->GetFieldData();
+    if (!mesh.face_twin.empty())
+        add_field_values<vtkIntArray>(fd, "boundary_face_twin", 1, mesh.face_twin.data(), nf);
     add_field_values<vtkIntArray>(fd, "boundary_faces", 3, mesh.faces.data()->data(), nf);
     add_field_values<vtkIntArray>(fd, "boundary_region_in", 1, mesh.region_in.data(), nf);
     add_field_values<vtkIntArray>(fd, "boundary_region_out", 1, mesh.region_out.data(), nf);
@@ -1057,6 +1069,28 @@ vtkIntArray* int_field(vtkFieldData* fd, const char* name, int components,
         FM_THROW(InputError, quoted(path) + ": field array '" + name + "' is not int32 x" +
                                  std::to_string(components));
     return ints;
+}
+
+/// The `twin` point array and `boundary_face_twin` field array of a mesh with split
+/// interfaces, into mesh.twin / mesh.face_twin when both are there and in range.
+void read_split_arrays(vtkUnstructuredGrid* grid, const std::string& path, core::TetMesh& mesh) {
+    auto* twin = vtkIntArray::SafeDownCast(grid->GetPointData()->GetAbstractArray("twin"));
+    vtkIntArray* face_twin = int_field(grid->GetFieldData(), "boundary_face_twin", 1, path);
+    const auto nn = static_cast<vtkIdType>(mesh.node_count());
+    const auto nf = static_cast<vtkIdType>(mesh.face_count());
+    if (twin == nullptr || face_twin == nullptr || twin->GetNumberOfComponents() != 1 ||
+        twin->GetNumberOfTuples() != nn || face_twin->GetNumberOfTuples() != nf)
+        return;
+    for (vtkIdType v = 0; v < nn; ++v)
+        if (twin->GetValue(v) < 0 || twin->GetValue(v) >= nn)
+            FM_THROW(InputError,
+                     quoted(path) + ": twin of node " + std::to_string(v) + " out of range");
+    for (vtkIdType f = 0; f < nf; ++f)
+        if (face_twin->GetValue(f) < -1 || face_twin->GetValue(f) >= nf)
+            FM_THROW(InputError, quoted(path) + ": boundary_face_twin of face " +
+                                     std::to_string(f) + " out of range");
+    mesh.twin.assign(twin->GetPointer(0), twin->GetPointer(0) + nn);
+    mesh.face_twin.assign(face_twin->GetPointer(0), face_twin->GetPointer(0) + nf);
 }
 
 }  // namespace
@@ -1141,6 +1175,7 @@ core::TetMesh read_tet_mesh(const std::string& path, FieldStrings* fields) {
             }
         mesh.region_in.assign(in->GetPointer(0), in->GetPointer(0) + nf);
         mesh.region_out.assign(out->GetPointer(0), out->GetPointer(0) + nf);
+        read_split_arrays(grid, path, mesh);
     } else {
         core::derive_boundary_faces(mesh);
         mesh.surface_vertices = static_cast<std::int32_t>(mesh.node_count());

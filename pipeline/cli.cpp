@@ -49,8 +49,9 @@ Commands:
             its value, as DIR/recipe.yaml (`frontmesh run DIR/recipe.yaml` runs it
             again), then runs it exactly as `run` does
   run       validate the recipe, then run its stages; each stage writes
-            OUTPUT/checkpoints/NN-STAGE.vtu; OUTPUT/run.pvd opens the whole run in
-            ParaView; OUTPUT/summary.json has times, memory and quality figures
+            OUTPUT/checkpoints/NN-STAGE.vtu; OUTPUT/run-surface.pvd and run-volume.pvd
+            step through its surface and tet stages in ParaView; OUTPUT/summary.json has
+            times, memory and quality figures
   validate  check the recipe and its input files without running anything
   cohort    run the recipe for every subject of MANIFEST.csv (columns id, image, then
             recipe keys as per-subject overrides) into OUTPUT/ID/, N subjects at a time
@@ -181,8 +182,11 @@ int run_and_report(const Recipe& recipe, const RunOptions& options) {
     std::cout << "\nResult:      " << result << "\nCheckpoints: " << (dir / "checkpoints").string()
               << "\nSummary:     " << (dir / "summary.json").string()
               << "\nLog:         " << (dir / "frontmesh.log").string()
-              << "\nOpen the whole run in ParaView:  paraview " << (dir / "run.pvd").string()
-              << "\n  (or File > Open > run.pvd; colour by region_in, eta or min_angle)\n";
+              << "\nStep through the run in ParaView:  paraview "
+              << (dir / "run-surface.pvd").string()
+              << "\n  (the surface stages; colour by region_in, eta or min_angle), and "
+              << (dir / "run-volume.pvd").string()
+              << "\n  (the tet stages, when the run made tets; colour by region or skewness)\n";
     return 0;
 }
 

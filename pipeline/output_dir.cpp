@@ -112,10 +112,10 @@ std::string held_input(const Recipe& recipe, const fs::path& dir) {
 // their place would make the run fail after its work (a rename onto a folder) or hang (the
 // log opened on a pipe).
 std::vector<std::string> result_names(const Recipe& recipe) {
-    std::vector<std::string> names = {
-        kOutputMarker,  "frontmesh.log",   "summary.json",         "run.pvd",
-        "surface.vtu",  "report.html",     "surface_skewness.svg", "tet_skewness.svg",
-        "dihedral.svg", "min_dihedral.svg"};
+    std::vector<std::string> names = {kOutputMarker,      "frontmesh.log",   "summary.json",
+                                      "run.pvd",          "run-surface.pvd", "run-volume.pvd",
+                                      "surface.vtu",      "report.html",     "surface_skewness.svg",
+                                      "tet_skewness.svg", "dihedral.svg",    "min_dihedral.svg"};
     for (const std::string& format : recipe.output.formats)
         names.push_back(io::export_file_name(io::format_from_name(format)));
     return names;

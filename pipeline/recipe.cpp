@@ -252,6 +252,38 @@ void add_output_keys(std::vector<KeySpec>& specs) {
         {"output.binary", "false", "", "",
          "binary mesh.msh (MSH 4.1); VTU is always binary, other formats text",
          [](const YAML::Node& n, Recipe& r, const Where& w) { r.output.binary = as_bool(n, w); }});
+    specs.push_back(
+        {"output.split_interfaces", "none", "", "",
+         "interfaces whose nodes are doubled for tie or contact: none, all, or [[1, 2], ...]",
+         [](const YAML::Node& n, Recipe& r, const Where& w) {
+             r.output.split_interfaces = {};
+             if (n.IsNull()) return;
+             if (n.IsScalar()) {
+                 if (as_choice(n, w, {"none", "all"}) == "all")
+                     r.output.split_interfaces.all = true;
+                 return;
+             }
+             if (!n.IsSequence())
+                 w.fail(
+                     "expected none, all or a list of label pairs such as [[1, 2], [2, 3]], "
+                     "got " +
+                     describe(n));
+             const core::ParamRange label = core::closed(1, INT32_MAX);
+             for (std::size_t i = 0; i < n.size(); ++i) {
+                 if (!n[i].IsSequence() || n[i].size() != 2)
+                     w.fail("expected a pair of labels such as [1, 2], got " + describe(n[i]));
+                 const auto a = static_cast<core::Label>(as_integer(n[i][0], w, label));
+                 const auto b = static_cast<core::Label>(as_integer(n[i][1], w, label));
+                 if (a == b)
+                     w.fail("[" + std::to_string(a) + ", " + std::to_string(b) +
+                            "] is not a pair of two different labels");
+                 for (const auto& [x, y] : r.output.split_interfaces.pairs)
+                     if (std::min(x, y) == std::min(a, b) && std::max(x, y) == std::max(a, b))
+                         w.fail("the interface between " + std::to_string(a) + " and " +
+                                std::to_string(b) + " is listed twice");
+                 r.output.split_interfaces.pairs.emplace_back(a, b);
+             }
+         }});
     specs.push_back({"output.quality_report", "true", "", "",
                      "report.html with quality histograms after refine",
                      [](const YAML::Node& n, Recipe& r, const Where& w) {
@@ -496,6 +528,15 @@ Recipe parse_recipe(const std::string& text, const std::string& path,
         FM_THROW(InputError, origin_for("input.labels") +
                                  ": input.labels: with input.threshold the mask has the single "
                                  "label 1; use [1] or all");
+    // A label of output.split_interfaces must be meshed; whether two labels touch only the
+    // mesh can tell (io::split_interfaces checks it before the exports).
+    if (!in.labels.empty())
+        for (const auto& [a, b] : recipe.output.split_interfaces.pairs)
+            for (const core::Label l : {a, b})
+                if (std::find(in.labels.begin(), in.labels.end(), l) == in.labels.end())
+                    FM_THROW(InputError, origin_for("output.split_interfaces") +
+                                             ": output.split_interfaces: label " +
+                                             std::to_string(l) + " is not in input.labels");
     check_output_dir(recipe, origin_for("output.dir"));
     recipe.extract.labels = in.labels;
     // An image's components are measured in voxels, by extract (issue 20).

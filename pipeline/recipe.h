@@ -7,6 +7,7 @@
 
 #include <Eigen/Core>
 
+#include "io/split_interfaces.h"
 #include "pipeline/core/label_image.h"
 #include "surface/extract.h"
 #include "surface/remesh.h"
@@ -32,6 +33,7 @@ struct OutputSection {
     core::Frame frame = core::Frame::Lps;
     std::vector<std::string> formats{"vtu"};  ///< exports of a tet mesh: mesh.EXT
     bool binary = false;                      ///< binary mesh.msh (VTU is always binary)
+    io::SplitInterfaces split_interfaces;     ///< interfaces whose nodes are doubled
     bool quality_report = true;               ///< report.html + SVG histograms after refine
     bool allow_input_folder = false;          ///< dir may be (or contain) the input's folder
 };

@@ -25,6 +25,7 @@
 #include "io/image_reader.h"
 #include "io/label_table.h"
 #include "io/mesh_io.h"
+#include "io/split_interfaces.h"
 #include "pipeline/core/error.h"
 #include "pipeline/core/surface_check.h"
 #include "pipeline/diagnostics.h"
@@ -49,6 +50,11 @@ using StageData =
 
 // What a stage reads and writes; decides how checkpoints are read, written and reported.
 enum class Kind { Image, Surface, Tets };
+
+/// The ParaView collection of the checkpoints of one kind (README "Outputs").
+std::string pvd_file_name(Kind kind) {
+    return kind == Kind::Tets ? "run-volume.pvd" : "run-surface.pvd";
+}
 
 // What a stage function hands back: its result, and the extra per-point figures its
 // checkpoint carries.
@@ -423,6 +429,7 @@ private:
     std::string input_json_;  // the image's metadata, until the folder exists to hold it
     std::optional<QualityHistograms> tetra_histograms_;  // kept for the quality report
     std::vector<core::TetFigures> figures_;              // of the last tet mesh a stage made
+    std::vector<fs::path> results_;  // the result files this run wrote or found up to date
 };
 
 int Run::index_of(const std::string& name, const char* flag) const {
@@ -825,6 +832,11 @@ std::string Run::write_results() {
         committed(result);
     }
     if (tet_result) write_exports(result, last_checkpoint, stale, ran_any);
+    results_ = files;
+    if (std::find(files.begin(), files.end(), out_.dir / "report.html") != files.end())
+        for (const char* svg : {"surface_skewness.svg", "tet_skewness.svg", "dihedral.svg",
+                                "min_dihedral.svg", "cross_section.svg"})
+            results_.push_back(out_.dir / svg);
     if (!stale.empty()) {
         for (const fs::path& file : files) record[file.filename().string()] = key;
         std::string text;
@@ -843,6 +855,7 @@ std::string Run::results_key() const {
     Hash h;
     h.add(hashes_[last_]);
     h.add(recipe_.output.binary ? "binary" : "text");
+    h.add(io::split_interfaces_text(recipe_.output.split_interfaces));
     for (const auto& [label, name] : names_.names()) {
         h.add(std::to_string(label));
         h.add(name);
@@ -868,15 +881,26 @@ void Run::write_exports(const fs::path& result, const fs::path& last_checkpoint,
     const core::TetMesh mesh = std::holds_alternative<core::TetMesh>(data_)
                                    ? std::get<core::TetMesh>(std::move(data_))
                                    : io::read_tet_mesh(last_checkpoint.string());
-    const io::FieldStrings fields = {
+    io::FieldStrings fields = {
         {"frame", frame_}, {"stage", stages_[last_].name}, {"frontmesh_version", version()}};
+    // Split interfaces (output.split_interfaces) in every export and mesh_surface.vtp, whose
+    // point array `node` indexes mesh.vtu; the report looks at the mesh as meshed.
+    const io::SplitInterfaces& split = recipe_.output.split_interfaces;
+    std::optional<core::TetMesh> split_copy;
+    if (!split.is_none() && (!exports.empty() || wanted(surface))) {
+        split_copy = io::split_interfaces(mesh, split);
+        fields["split_interfaces"] = io::split_interfaces_text(split);
+        info("split interfaces " + io::split_interfaces_text(split) + ": " +
+             std::to_string(split_copy->node_count() - mesh.node_count()) + " node copies");
+    }
+    const core::TetMesh& split_mesh = split_copy ? *split_copy : mesh;
     for (const auto& [file, format] : exports) {
-        io::write_mesh(mesh, file.string(), format, names_, fields, {recipe_.output.binary});
+        io::write_mesh(split_mesh, file.string(), format, names_, fields, {recipe_.output.binary});
         committed(file);
         info("wrote " + file.string());
     }
     if (wanted(surface)) {
-        io::write_mesh_surface(mesh, surface.string(), names_, fields);
+        io::write_mesh_surface(split_mesh, surface.string(), names_, fields);
         committed(surface);
     }
     if (report) {
@@ -936,13 +960,31 @@ ReportContext Run::report_context() const {
     return context;
 }
 
+// One ParaView collection per kind (issue 22): run-surface.pvd steps through the surface
+// checkpoints of this run (extract, repair, remesh), run-volume.pvd through its tet
+// checkpoints (tetra, refine), so that stepping never jumps from triangles to tets. Only
+// stages up to the last one of this run: later checkpoints of an earlier, longer run are
+// not this run's. A collection with nothing to show is removed, as is the mixed run.pvd
+// of earlier versions.
 void Run::write_pvd() {
-    std::vector<std::pair<std::string, std::string>> entries;
-    for (int i = entry_; i < static_cast<int>(stages_.size()); ++i)
-        if (fs::exists(out_.checkpoint(stages_[i])))
-            entries.emplace_back(fs::relative(out_.checkpoint(stages_[i]), out_.dir).string(),
-                                 stages_[i].name);
-    io::write_pvd((out_.dir / "run.pvd").string(), entries);
+    for (const Kind kind : {Kind::Surface, Kind::Tets}) {
+        std::vector<std::pair<std::string, std::string>> entries;
+        for (int i = entry_; i <= last_; ++i)
+            if (stages_[i].out == kind && fs::exists(out_.checkpoint(stages_[i])))
+                entries.emplace_back(fs::relative(out_.checkpoint(stages_[i]), out_.dir).string(),
+                                     stages_[i].name);
+        const fs::path pvd = out_.dir / pvd_file_name(kind);
+        if (!entries.empty()) {
+            io::write_pvd(pvd.string(), entries);
+        } else if (fs::exists(pvd)) {
+            fs::remove(pvd);
+            committed(pvd);
+        }
+    }
+    if (fs::exists(out_.dir / "run.pvd")) {
+        fs::remove(out_.dir / "run.pvd");
+        committed(out_.dir / "run.pvd");
+    }
 }
 
 void Run::write_summary(const std::string& status, const std::string& error) {
@@ -990,17 +1032,19 @@ void Run::write_summary(const std::string& status, const std::string& error) {
         s << (r ? ", " : "") << "{\"label\": " << labels[r]
           << ", \"name\": " << (names_.has(labels[r]) ? json_quote(names_.name(labels[r])) : "null")
           << "}";
-    // What the folder holds now: the result files, then the checkpoints.
+    // What this run wrote or found up to date (issue 22): its result files, collections and
+    // log, and the checkpoints of its stages; not files of earlier runs that the folder
+    // still holds (an export of a format no longer asked for, a checkpoint of a later stage).
     s << "],\n  \"outputs\": [";
     std::vector<fs::path> files;
-    for (const fs::path& folder : {out_.dir, out_.dir / "checkpoints"})
-        if (fs::is_directory(folder))
-            for (const auto& entry : fs::directory_iterator(folder)) {
-                const std::string name = entry.path().filename().string();
-                if (entry.is_regular_file() && name[0] != '.' && name != "summary.json" &&
-                    (folder == out_.dir || entry.path().extension() == ".vtu"))
-                    files.push_back(entry.path());
-            }
+    auto add = [&](const fs::path& file) {
+        if (fs::is_regular_file(file) && std::find(files.begin(), files.end(), file) == files.end())
+            files.push_back(file);
+    };
+    for (const fs::path& file : results_) add(file);
+    for (const Kind kind : {Kind::Surface, Kind::Tets}) add(out_.dir / pvd_file_name(kind));
+    add(out_.dir / "frontmesh.log");
+    for (int i = entry_; i <= last_; ++i) add(out_.checkpoint(stages_[i]));
     std::sort(files.begin(), files.end());
     for (std::size_t f = 0; f < files.size(); ++f)
         s << (f ? ",\n    " : "\n    ")

@@ -35,6 +35,14 @@ struct TetMesh {
     std::vector<std::int32_t> level;  ///< per node front level (0 = input surface);
                                       ///< empty when unknown
 
+    /// After io::split_interfaces (interfaces split for tie or contact; the mesh is then not
+    /// conforming there): per node, the node it is a copy of (itself for a node that is not a
+    /// copy), and per face, the same triangle seen from the other side of a split interface
+    /// (a split interface face is stored once per side, each oriented out of its region_in),
+    /// -1 for the other faces. Both empty when no interface is split.
+    std::vector<std::int32_t> twin;
+    std::vector<std::int32_t> face_twin;
+
     std::size_t node_count() const { return xyz.size() / 3; }
     std::size_t tet_count() const { return tets.size(); }
     std::size_t face_count() const { return faces.size(); }

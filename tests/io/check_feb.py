@@ -10,7 +10,9 @@ the sections frontmesh writes (FEBio 4 User's Manual, "Free format input"):
   - Mesh: node ids 1..n; every Elements part named, tet4, its element ids unique and its
     nodes existing; every Surface face (tri3) references existing nodes and is a face of an
     element, oriented out of it; NodeSet / ElementSet members exist (lists and a:b ranges);
-    names of parts, surfaces, sets unique; every SurfacePair names two existing surfaces;
+    names of parts, surfaces, sets unique; every SurfacePair names two existing surfaces
+    of the same triangles: on the same nodes, or, for an interface split by
+    output.split_interfaces (sides on their own nodes), at the same coordinates;
   - MeshDomains: every part has exactly one SolidDomain whose material exists, and every
     domain names an existing part.
 Prints one "count NAME N" line per kind (for the caller to compare with the mesh) and
@@ -91,8 +93,9 @@ def main(path):
 
     mesh = root.find("Mesh")
     nodes = set()
+    xyz = {}
     for nd in mesh.findall("Nodes/node"):
-        numbers(nd.text, 3, f"node {nd.get('id')}")
+        xyz[int(nd.get("id"))] = tuple(numbers(nd.text, 3, f"node {nd.get('id')}"))
         nodes.add(int(nd.get("id")))
     if nodes != set(range(1, len(nodes) + 1)):
         fail("node ids are not 1..n")
@@ -118,7 +121,7 @@ def main(path):
                 for rot in ((a, b, d), (b, d, a), (d, a, b)):
                     outward[rot] = eid
     names = set(parts)
-    surfaces = {}
+    surfaces, faces = {}, {}
     for s in mesh.findall("Surface"):
         name = s.get("name")
         if not name or name in names:
@@ -133,6 +136,7 @@ def main(path):
             if tri not in outward:
                 fail(f"surface {name}: face {tri} is not an outward element face")
         surfaces[name] = len(s)
+        faces[name] = [tuple(int(v) for v in f.text.split(",")) for f in s]
         if not len(s):
             fail(f"surface {name} is empty")
     for tag, members, what in (("NodeSet", nodes, "node"), ("ElementSet", elements, "element")):
@@ -145,12 +149,22 @@ def main(path):
             if not listed or not set(listed) <= members:
                 fail(f"{tag} {name}: empty or lists a missing {what}")
             print("count", tag, name, len(listed))
-    pairs = 0
+    pairs = split = 0
     for p in mesh.findall("SurfacePair"):
         primary, secondary = p.findtext("primary"), p.findtext("secondary")
         if primary not in surfaces or secondary not in surfaces or primary == secondary:
             fail(f"SurfacePair {p.get('name')}: {primary} / {secondary} are not two surfaces")
         pairs += 1
+        on_nodes = [sorted(frozenset(f) for f in faces[s]) for s in (primary, secondary)]
+        if on_nodes[0] == on_nodes[1]:
+            continue
+        # A split interface: the same triangles at the same coordinates, on other nodes.
+        at = [sorted(tuple(sorted(xyz[v] for v in f)) for f in faces[s])
+              for s in (primary, secondary)]
+        if at[0] != at[1]:
+            fail(f"SurfacePair {p.get('name')}: {primary} and {secondary} are not the same "
+                 "triangles")
+        split += 1
 
     domains = {}
     for d in root.findall("MeshDomains/*"):
@@ -175,6 +189,7 @@ def main(path):
     for name, n in sorted(surfaces.items()):
         print("count surface", name, n)
     print("count pairs", pairs)
+    print("split pairs", split)
     print("OK")
 
 

@@ -130,6 +130,28 @@ TEST_CASE("recipe errors: one line naming file, line and key", "[pipeline]") {
         CHECK_THAT(error_of("input:\n  image: ball.mha\n", {"noequals"}),
                    Catch::Contains("key.path=value"));
     }
+    SECTION("output.split_interfaces: none, all or label pairs") {
+        const std::string in = "input:\n  image: ball.mha\n  labels: [1, 2, 3]\noutput:\n";
+        CHECK(error_of(in + "  split_interfaces: [[1, 2], [3, 2]]\n") == "");
+        CHECK(error_of(in + "  split_interfaces: all\n") == "");
+        CHECK(error_of(in + "  split_interfaces: none\n") == "");
+        CHECK_THAT(error_of(in + "  split_interfaces: some\n"),
+                   Catch::Contains("r.yaml:5") && Catch::Contains("output.split_interfaces") &&
+                       Catch::Contains("none, all"));
+        CHECK_THAT(error_of(in + "  split_interfaces: [1, 2]\n"),
+                   Catch::Contains("output.split_interfaces") &&
+                       Catch::Contains("a pair of labels such as [1, 2]"));
+        CHECK_THAT(
+            error_of(in + "  split_interfaces: [[2, 2]]\n"),
+            Catch::Contains("output.split_interfaces") && Catch::Contains("two different labels"));
+        CHECK_THAT(error_of(in + "  split_interfaces: [[1, 2], [2, 1]]\n"),
+                   Catch::Contains("listed twice"));
+        CHECK_THAT(error_of(in + "  split_interfaces: [[0, 2]]\n"),
+                   Catch::Contains("output.split_interfaces"));
+        CHECK_THAT(error_of(in + "  split_interfaces: [[1, 5]]\n"),
+                   Catch::Contains("r.yaml:5: output.split_interfaces: label 5 is not in "
+                                   "input.labels"));
+    }
     SECTION("a valid recipe has no error") { CHECK(error_of("input:\n  image: ball.mha\n") == ""); }
 }
 

@@ -41,7 +41,7 @@ TEST_CASE("run writes checkpoints, run.pvd, summary, log and result", "[pipeline
     const fs::path out = fs::path(dir) / "out";
     for (const char* f :
          {"checkpoints/01-extract.vtu", "checkpoints/02-repair.vtu", "checkpoints/01-extract.hash",
-          "run.pvd", "summary.json", "frontmesh.log", "surface.vtu"})
+          "run-surface.pvd", "summary.json", "frontmesh.log", "surface.vtu"})
         CHECK(fs::exists(out / f));
     CHECK(temp_files_below(out) == 0);
     const std::string summary = slurp(out / "summary.json");
@@ -64,10 +64,13 @@ TEST_CASE("run writes checkpoints, run.pvd, summary, log and result", "[pipeline
     } else {
         WARN("meshcheck.py not found beside the repository; referee skipped");
     }
-    const std::string pvd = slurp(out / "run.pvd");
+    // One collection per kind: this run made surfaces only (issue 22).
+    const std::string pvd = slurp(out / "run-surface.pvd");
     CHECK_THAT(pvd, Catch::Contains("checkpoints/01-extract.vtu") &&
                         Catch::Contains("checkpoints/02-repair.vtu"));
-    CHECK_THAT(r.out, Catch::Contains("run.pvd"));
+    CHECK(!fs::exists(out / "run-volume.pvd"));
+    CHECK(!fs::exists(out / "run.pvd"));
+    CHECK_THAT(r.out, Catch::Contains("run-surface.pvd"));
 
     SECTION("an unchanged re-run skips every stage") {
         const auto before = fs::last_write_time(out / "checkpoints/02-repair.vtu");

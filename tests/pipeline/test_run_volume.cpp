@@ -45,9 +45,19 @@ TEST_CASE("nested phantom: image to refined tet mesh, three regions, surface kep
     INFO(r.err);
     REQUIRE(r.exit_code == 0);
     const fs::path out = fs::path(dir) / "out";
-    for (const char* f :
-         {"checkpoints/04-tetra.vtu", "checkpoints/05-refine.vtu", "mesh.vtu", "run.pvd"})
+    for (const char* f : {"checkpoints/04-tetra.vtu", "checkpoints/05-refine.vtu", "mesh.vtu",
+                          "run-surface.pvd", "run-volume.pvd"})
         CHECK(fs::exists(out / f));
+    // Stepping through a collection never mixes triangles and tets (issue 22).
+    const std::string surfaces = slurp(out / "run-surface.pvd");
+    const std::string volumes = slurp(out / "run-volume.pvd");
+    CHECK_THAT(surfaces, Catch::Contains("checkpoints/01-extract.vtu") &&
+                             Catch::Contains("checkpoints/03-remesh.vtu") &&
+                             !Catch::Contains("04-tetra") && !Catch::Contains("05-refine"));
+    CHECK_THAT(volumes, Catch::Contains("timestep=\"0\"") &&
+                            Catch::Contains("checkpoints/04-tetra.vtu") &&
+                            Catch::Contains("checkpoints/05-refine.vtu") &&
+                            !Catch::Contains("extract") && !Catch::Contains("remesh"));
 
     // Our own checks: valid, every region's volume equal to what its boundary encloses.
     const core::TetMesh tetra = io::read_tet_mesh((out / "checkpoints/04-tetra.vtu").string());

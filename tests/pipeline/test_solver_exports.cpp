@@ -2,10 +2,12 @@
 // a static step on the .inp of generated single- and multi-region phantoms, and tag numbers
 // do not change when a second run meshes a subset of the labels.
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <set>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -13,7 +15,11 @@
 #include <catch2/catch.hpp>
 
 #include "io/export.h"
+#include "io/mesh_io.h"
+#include "io/split_interfaces.h"
+#include "pipeline/core/quality.h"
 #include "tests/fixtures/phantoms.h"
+#include "tests/fixtures/referee.h"
 #include "tests/fixtures/skip.h"
 #include "tests/pipeline/cli_helpers.h"
 
@@ -45,10 +51,10 @@ Shell shell(const std::string& command) {
 /// Meshes `image` (in `dir`) with `labels` ("all" or "[2, 3]") into dir/NAME, exporting
 /// vtu, msh and inp; names from names.txt in `dir` when it exists. Returns the output folder.
 fs::path mesh_image(const std::string& dir, const std::string& image, const std::string& name,
-                    const std::string& labels) {
+                    const std::string& labels, const std::string& more_output = "") {
     std::string recipe = "input:\n  image: " + image + "\n  labels: " + labels + "\n";
     if (fs::exists(dir + "/names.txt")) recipe += "  label_names: names.txt\n";
-    recipe += "output:\n  dir: " + name + "\n  formats: [vtu, msh, inp, feb]\n";
+    recipe += "output:\n  dir: " + name + "\n  formats: [vtu, msh, inp, feb]\n" + more_output;
     write_file(dir + "/" + name + ".yaml", recipe);
     const auto r = run_frontmesh("run " + name + ".yaml --quiet", dir);
     INFO(r.err);
@@ -239,4 +245,180 @@ TEST_CASE("CalculiX solves the .inp of a three-region phantom unchanged",
         CHECK_THAT(inp, Catch::Contains("NAME=interface_CSF_Skull\n"));
         CHECK_THAT(inp, Catch::Contains("NAME=interface_Skull_CSF\n"));
     }
+}
+
+namespace {
+
+std::map<core::Label, double> region_volumes(const core::TetMesh& mesh) {
+    std::map<core::Label, double> v;
+    for (std::size_t t = 0; t < mesh.tet_count(); ++t) {
+        const auto& q = mesh.tets[t];
+        v[mesh.region[t]] += core::tet_signed_volume(mesh.point(q[0]), mesh.point(q[1]),
+                                                     mesh.point(q[2]), mesh.point(q[3]));
+    }
+    return v;
+}
+
+std::set<std::int32_t> region_nodes(const core::TetMesh& mesh, core::Label r) {
+    std::set<std::int32_t> nodes;
+    for (std::size_t t = 0; t < mesh.tet_count(); ++t)
+        if (mesh.region[t] == r) nodes.insert(mesh.tets[t].begin(), mesh.tets[t].end());
+    return nodes;
+}
+
+/// The lines of the commented *TIE skeleton of a split interface in a .inp we wrote,
+/// uncommented ("***TIE" -> "*TIE").
+std::string tie_lines(const fs::path& inp, long long tag) {
+    std::istringstream in(slurp(inp));
+    std::string line, tie;
+    while (std::getline(in, line))
+        if (line.rfind("***TIE, NAME=T" + std::to_string(tag) + ",", 0) == 0) {
+            tie = line.substr(2) + "\n";
+            if (std::getline(in, line) && line.rfind("**", 0) == 0) tie += line.substr(2) + "\n";
+            break;
+        }
+    return tie;
+}
+
+}  // namespace
+
+TEST_CASE("a split interface shares no node and keeps volumes and CalculiX solves it tied",
+          "[pipeline][export][ccx][split]") {
+    const std::string dir = fixtures::temp_dir("solver_ccx_split");
+    fixtures::write_metaimage(fixtures::nested_ellipsoids_image(1.0, 0.6), dir + "/phantom.mha");
+    write_file(dir + "/names.txt", "1 Brain\n2 CSF\n3 Skull\n");
+    const fs::path out =
+        mesh_image(dir, "phantom.mha", "out", "all", "  split_interfaces: [[2, 1]]\n");
+
+    // The brain and the CSF share no node; twins sit at the same place; volumes as meshed.
+    const core::TetMesh split = io::read_tet_mesh((out / "mesh.vtu").string());
+    const core::TetMesh meshed = io::read_tet_mesh((out / "checkpoints/05-refine.vtu").string());
+    REQUIRE(split.twin.size() == split.node_count());
+    CHECK(split.node_count() > meshed.node_count());
+    const auto brain = region_nodes(split, 1), csf = region_nodes(split, 2);
+    std::vector<std::int32_t> common;
+    std::set_intersection(brain.begin(), brain.end(), csf.begin(), csf.end(),
+                          std::back_inserter(common));
+    CHECK(common.empty());
+    std::size_t copies = 0;
+    for (std::size_t v = 0; v < split.node_count(); ++v) {
+        const std::int32_t w = split.twin[v];
+        if (w == static_cast<std::int32_t>(v)) continue;
+        ++copies;
+        CHECK((split.point(static_cast<std::int32_t>(v)) - split.point(w)).norm() == 0.0);
+    }
+    CHECK(copies == split.node_count() - meshed.node_count());
+    const auto before = region_volumes(meshed), after = region_volumes(split);
+    for (const auto& [r, v] : before) CHECK(after.at(r) == Approx(v).epsilon(1e-12));
+
+    // The referee: the split sides are boundary faces of their regions (two closed sheets
+    // at the same place, opposite normals), the twins duplicate nodes; still valid.
+    if (const std::string meshcheck = fixtures::meshcheck_path(); !meshcheck.empty()) {
+        const Shell r =
+            shell("/usr/bin/python3 '" + meshcheck + "' '" + (out / "mesh.vtu").string() + "'");
+        INFO(r.out);
+        CHECK(r.exit_code == 0);
+    }
+    // Brain and skull do not touch: exit 2, one line naming the key (the stages are reused).
+    const auto apart =
+        run_frontmesh("run out.yaml --quiet --set 'output.split_interfaces=[[1, 3]]'", dir);
+    CHECK(apart.exit_code == 2);
+    CHECK_THAT(apart.err, Catch::Contains("output.split_interfaces: [1, 3]: regions 1 and 3 "
+                                          "do not touch (no interface between them)"));
+    CHECK(std::count(apart.err.begin(), apart.err.end(), '\n') <= 1);
+    const auto again =
+        run_frontmesh("run out.yaml --quiet --set 'output.split_interfaces=[[2, 1]]'", dir);
+    REQUIRE(again.exit_code == 0);
+
+    // FEBio: the pair of the split interface holds the same triangles on other nodes.
+    const Shell feb = shell("/usr/bin/python3 '" FRONTMESH_SOURCE_DIR "/tests/io/check_feb.py' '" +
+                            (out / "mesh.feb").string() + "'");
+    INFO(feb.out);
+    CHECK(feb.exit_code == 0);
+    CHECK_THAT(feb.out, Catch::Contains("split pairs 1\n"));
+
+    if (shell("command -v ccx").exit_code != 0) {
+        FM_SKIP("ccx not installed (scripts/install-deps.sh installs calculix-ccx)");
+    }
+    // Held at the skull's inner surface, under gravity: the brain hangs on the tie alone.
+    const std::string tie = tie_lines(out / "mesh.inp", 100002);
+    REQUIRE(tie ==
+            "*TIE, NAME=T100002, ADJUST=NO\ninterface_CSF_Brain_SLAVE, interface_Brain_CSF\n");
+    std::string deck;
+    for (const auto& [label, set] : region_sets(out / "mesh.inp"))
+        deck += "*MATERIAL, NAME=M" + std::to_string(label) + "\n*ELASTIC\n" +
+                std::to_string(1000 * label) + "., 0.45\n*DENSITY\n1.E-9\n" +
+                "*SOLID SECTION, ELSET=" + set + ", MATERIAL=M" + std::to_string(label) + "\n";
+    deck += tie + "*BOUNDARY\ninterface_CSF_Skull_NODES, 1, 3\n";
+    solve_with_ccx(out, deck, "*DLOAD\nALLELEMENTS, GRAV, 9810., 0., 0., -1.\n",
+                   node_count(out / "mesh.inp"));
+    // Continuous across the tie: each copy moves with the node it copies.
+    const auto u = displacements(out / "job.dat");
+    double max_u = 0, max_jump = 0;
+    for (const auto& [node, v] : u)
+        for (double x : v) max_u = std::max(max_u, std::abs(x));
+    for (std::size_t v = 0; v < split.node_count(); ++v) {
+        const std::int32_t w = split.twin[v];
+        if (w == static_cast<std::int32_t>(v)) continue;
+        const auto a = u.find(static_cast<int>(v) + 1), b = u.find(w + 1);
+        REQUIRE(a != u.end());
+        REQUIRE(b != u.end());
+        for (int k = 0; k < 3; ++k)
+            max_jump = std::max(max_jump, std::abs(a->second[static_cast<std::size_t>(k)] -
+                                                   b->second[static_cast<std::size_t>(k)]));
+    }
+    INFO("max |u| " << max_u << ", largest jump across the tie " << max_jump);
+    CHECK(max_u > 0.0);
+    CHECK(max_jump <= 1e-3 * max_u);
+}
+
+TEST_CASE("CalculiX ties a split interface that ends on an unsplit junction",
+          "[pipeline][export][ccx][split]") {
+    if (shell("command -v ccx").exit_code != 0) {
+        FM_SKIP("ccx not installed (scripts/install-deps.sh installs calculix-ccx)");
+    }
+    // A cube of 4^3 Kuhn cells: 1 below, 2 above, 3 on the side (x > 1); 1|2 is split and
+    // ends on the line where 1|3 and 2|3 (not split) meet, whose nodes stay shared. A tie
+    // whose slave side held those nodes would tie them to themselves (CalculiX stops:
+    // "zero coefficient on the dependent side").
+    core::TetMesh mesh = fixtures::cube_tet_mesh(4, 0.5, true);
+    for (std::size_t t = 0; t < mesh.tet_count(); ++t) {
+        double x = 0;
+        for (int k = 0; k < 4; ++k) x += mesh.point(mesh.tets[t][k]).x() / 4;
+        if (x > 1.0) mesh.region[t] = 3;
+    }
+    core::derive_boundary_faces(mesh);
+    mesh.surface_vertices = static_cast<std::int32_t>(mesh.node_count());
+    const core::TetMesh split = io::split_interfaces(mesh, {false, {{1, 2}}});
+    const fs::path dir = fixtures::temp_dir("solver_ccx_split_junction");
+    io::write_mesh(split, (dir / "mesh.inp").string(), io::MeshFormat::Abaqus);
+    const std::string tie = tie_lines(dir / "mesh.inp", 100002);
+    REQUIRE(tie ==
+            "*TIE, NAME=T100002, ADJUST=NO\ninterface_region_2_region_1_SLAVE, "
+            "interface_region_1_region_2\n");
+    std::string deck;
+    for (int r = 1; r <= 3; ++r)
+        deck += "*MATERIAL, NAME=M" + std::to_string(r) + "\n*ELASTIC\n" + std::to_string(10 * r) +
+                "., 0.45\n*DENSITY\n1.E-9\n*SOLID SECTION, ELSET=region_" + std::to_string(r) +
+                ", MATERIAL=M" + std::to_string(r) + "\n";
+    deck += tie + "*BOUNDARY\nboundary_region_3_NODES, 1, 3\n";
+    solve_with_ccx(dir, deck, "*DLOAD\nALLELEMENTS, GRAV, 9810., 0., 0., -1.\n",
+                   split.node_count());
+    const auto u = displacements(dir / "job.dat");
+    double max_u = 0, max_jump = 0;
+    for (const auto& [node, v] : u)
+        for (double x : v) max_u = std::max(max_u, std::abs(x));
+    for (std::size_t v = 0; v < split.node_count(); ++v) {
+        const std::int32_t w = split.twin[v];
+        if (w == static_cast<std::int32_t>(v)) continue;
+        const auto a = u.find(static_cast<int>(v) + 1), b = u.find(w + 1);
+        REQUIRE(a != u.end());
+        REQUIRE(b != u.end());
+        for (int k = 0; k < 3; ++k)
+            max_jump = std::max(max_jump, std::abs(a->second[static_cast<std::size_t>(k)] -
+                                                   b->second[static_cast<std::size_t>(k)]));
+    }
+    INFO("max |u| " << max_u << ", largest jump across the tie " << max_jump);
+    CHECK(max_u > 0.0);
+    CHECK(max_jump <= 1e-3 * max_u);
 }

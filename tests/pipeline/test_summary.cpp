@@ -103,3 +103,39 @@ TEST_CASE("summary.json lists outputs, names, recipe, image and times and passes
     write_file(dir + "/broken.json", broken);
     CHECK(validate(fs::path(dir) / "broken.json", dir).first == 1);
 }
+
+TEST_CASE("summary.json lists only what this run wrote or found up to date",
+          "[pipeline][summary]") {
+    const std::string dir = fixtures::temp_dir("summary_outputs");
+    fixtures::write_metaimage(fixtures::sphere_image(20, 7.0), dir + "/ball.mha");
+    write_file(dir + "/recipe.yaml",
+               "input:\n  image: ball.mha\noutput:\n  dir: out\n  formats: [vtu, msh, inp]\n");
+    const auto first = run_frontmesh("run recipe.yaml --quiet", dir);
+    INFO(first.err);
+    REQUIRE(first.exit_code == 0);
+    const fs::path out = fs::path(dir) / "out";
+    CHECK_THAT(slurp(out / "summary.json"),
+               Catch::Contains("{\"file\": \"mesh.inp\", \"bytes\": ") &&
+                   Catch::Contains("{\"file\": \"run-volume.pvd\", \"bytes\": "));
+
+    // Another format: mesh.inp stays in the folder but is not this run's output.
+    const auto second = run_frontmesh("run recipe.yaml --quiet --set output.formats=[vtu]", dir);
+    REQUIRE(second.exit_code == 0);
+    REQUIRE(fs::exists(out / "mesh.inp"));
+    std::string summary = slurp(out / "summary.json");
+    CHECK_THAT(summary, !Catch::Contains("\"mesh.inp\"") && !Catch::Contains("\"mesh.msh\"") &&
+                            Catch::Contains("{\"file\": \"mesh.vtu\", \"bytes\": ") &&
+                            Catch::Contains("{\"file\": \"mesh_surface.vtp\", \"bytes\": ") &&
+                            Catch::Contains("{\"file\": \"report.html\", \"bytes\": ") &&
+                            Catch::Contains("{\"file\": \"checkpoints/05-refine.vtu\", "));
+
+    // A shorter run: the tet checkpoints of the earlier runs are not its outputs.
+    const auto surface = run_frontmesh("run recipe.yaml --quiet --until remesh", dir);
+    REQUIRE(surface.exit_code == 0);
+    summary = slurp(out / "summary.json");
+    CHECK_THAT(summary, Catch::Contains("{\"file\": \"checkpoints/03-remesh.vtu\", ") &&
+                            Catch::Contains("{\"file\": \"surface.vtu\", ") &&
+                            !Catch::Contains("04-tetra") && !Catch::Contains("\"mesh.vtu\"") &&
+                            !Catch::Contains("run-volume.pvd"));
+    CHECK(!fs::exists(out / "run-volume.pvd"));
+}
