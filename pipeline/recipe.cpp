@@ -579,7 +579,8 @@ std::string canonical_params(const Recipe& recipe, const std::string& section) {
         s << "method=" << static_cast<int>(e.method) << ";blur=" << e.blur_sigma_mm
           << ";iterations=" << e.smoothing_iterations << ";relaxation=" << e.smoothing_relaxation
           << ";cleanup=" << e.manifold_cleanup << ";closing=" << e.closing_voxels
-          << ";opening=" << e.opening_voxels << ";min_volume=" << e.min_component_volume_mm3;
+          << ";opening=" << e.opening_voxels << ";min_volume=" << e.min_component_volume_mm3
+          << ";volume=" << e.preserve_volume;
         for (auto l : e.labels) s << ";label=" << l;
     } else if (section == "repair") {
         const auto& p = recipe.repair;
@@ -594,7 +595,7 @@ std::string canonical_params(const Recipe& recipe, const std::string& section) {
           << ";layers=" << m.thickness_layers << ";feature=" << m.feature_angle_deg
           << ";smoothing=" << m.smoothing_iterations << ";flip=" << m.flip_max_dihedral_deg
           << ";check_si=" << m.check_self_intersections
-          << ";max_volume=" << m.max_volume_change_percent;
+          << ";max_volume=" << m.max_volume_change_percent << ";volume=" << m.preserve_volume;
         for (const auto& [label, size] : m.label_edge_length) s << ";label" << label << "=" << size;
     } else if (section == "tetra") {
         const auto& t = recipe.tetra;

@@ -24,6 +24,7 @@
 #include "pipeline/core/quality.h"
 #include "pipeline/core/self_intersection.h"
 #include "surface/remesh_internal.h"
+#include "surface/volume_correction.h"
 
 namespace frontmesh::surface {
 
@@ -484,6 +485,21 @@ bool mesh_round(int round, Rounds& r, RoundResult& result) {
 // crossing faces and no flat wedge; else nullopt (the failure stands). A warning names the failure,
 // and `remesh.fallback_to_background` counts it: the result is valid but keeps the background's
 // triangles (and their quality) everywhere.
+// remesh.preserve_volume: every region back to the background's enclosed volume, offsets of
+// at most h / 10 (the sagitta of a chord of length h on a radius of 1.25 h; thinner or more
+// curved parts keep part of their loss rather than move further off the background).
+void preserve_volumes(const core::SurfaceNetwork& bg, const RemeshParams& params, double h,
+                      core::SurfaceNetwork& out, core::StageContext& ctx) {
+    if (!params.preserve_volume) return;
+    std::map<core::Label, double> target;
+    for (const core::Label l : core::region_labels(bg)) target[l] = core::enclosed_volume(bg, l);
+    const VolumeCorrection c = correct_region_volumes(out, target, 0.1 * h, 3);
+    ctx.count("remesh.volume_error_percent_before", 100.0 * c.worst_before);
+    ctx.count("remesh.volume_error_percent", 100.0 * c.worst_after);
+    ctx.count("remesh.volume_error_region", static_cast<double>(c.worst_region));
+    ctx.count("remesh.vertices_put_back_for_volume", static_cast<double>(c.vertices_put_back));
+}
+
 std::optional<RemeshResult> background_result(const core::SurfaceNetwork& bg, const SizeField& size,
                                               const std::string& why, core::StageContext& ctx) {
     if (!core::inverted_parts(bg).empty() || !core::self_intersections(bg, 1).empty() ||
@@ -536,6 +552,7 @@ RemeshResult remesh(const core::SurfaceNetwork& bg, const RemeshParams& params,
         ctx.check_cancelled();
         if (mesh_round(round, rounds, last)) {
             for (const auto& [name, value] : last.sums) ctx.add(name, value);
+            preserve_volumes(bg, params, sp.edge_length, last.out, ctx);
             clock.lap("checks");
             return finished_result(size, std::move(last.out), last.constraints.vertex_face,
                                    last.curve_points, ctx);
@@ -552,6 +569,7 @@ RemeshResult remesh(const core::SurfaceNetwork& bg, const RemeshParams& params,
         throw;
     }
     for (const auto& [name, value] : last.sums) ctx.add(name, value);
+    preserve_volumes(bg, params, sp.edge_length, last.out, ctx);
     clock.lap("checks");
     return finished_result(size, std::move(last.out), last.constraints.vertex_face,
                            last.curve_points, ctx);

@@ -42,6 +42,11 @@ struct RemeshParams {
     /// again with sizes scaled by about sqrt(limit / change) on its patches (chords of an
     /// inscribed mesh lose volume as h^2), for up to the stage's rounds; 0 = off.
     double max_volume_change_percent = 0.0;
+    /// After the last round, each region's faces move along their normals (at most a tenth
+    /// of h) so the region encloses the background's volume again (correct_region_volumes,
+    /// surface/volume_correction.h): chords of an inscribed mesh lose volume as h^2, a thin
+    /// or small region several per cent. Off: vertices stay on the background exactly.
+    bool preserve_volume = true;
 };
 
 /// Every `remesh.*` recipe key: the member it sets, default, range, unit and a one-line
