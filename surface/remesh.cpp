@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <iomanip>
 #include <map>
 #include <optional>
 #include <set>
@@ -145,6 +146,29 @@ std::vector<std::uint8_t> patches_to_mesh(const PatchLoops& loops, const PatchCa
         dirty[p] = !same || retry.has_new_sizes(p, cache.box[p]);
     }
     return dirty;
+}
+
+// The triangles the front is expected to make on the `dirty` patches it meshes (not those
+// copied): area / (sqrt(3)/4 h^2) per background face, h at its centroid (RetryPolicy::spend).
+double expected_front_triangles(const core::SurfaceNetwork& bg, const Features& features,
+                                const std::vector<std::uint8_t>& dirty, const RetryPolicy& retry) {
+    double n = 0.0;
+    for (std::size_t p = 0; p < features.patches.size(); ++p) {
+        if (!dirty[p] || retry.copy(p)) continue;
+        for (const std::int32_t f : features.patches[p].faces) {
+            const auto& t = bg.faces[std::size_t(f)];
+            const Eigen::Vector3d a = bg.point(t[0]), b = bg.point(t[1]), c = bg.point(t[2]);
+            const double h = retry.size((a + b + c) / 3.0, f);
+            if (h > 0.0) n += 0.5 * (b - a).cross(c - a).norm() / (0.4330127 * h * h);
+        }
+    }
+    return n;
+}
+
+std::string format_ratio(double r) {
+    std::ostringstream s;
+    s << std::setprecision(3) << r;
+    return s.str();
 }
 
 // §2: the advancing front applied directly in 3-D on each patch (TBB-parallel over patches,
@@ -440,6 +464,12 @@ bool mesh_round(int round, Rounds& r, RoundResult& result) {
     ctx.count("remesh.patches_with_repeated_loop_points",
               double(patches_with_repeated_loop_points(loops)));
     const std::vector<std::uint8_t> dirty = patches_to_mesh(loops, r.cache, r.retry);
+    if (r.retry.spend(expected_front_triangles(r.bg, r.features, dirty, r.retry)))
+        ctx.warn("remesh: round " + std::to_string(round + 1) + " brings the rounds' work to " +
+                 format_ratio(r.retry.work_ratio()) +
+                 " times the first round's; from now on a patch whose front stalls or whose faces "
+                 "cross keeps its background triangles");
+    ctx.count("remesh.work_ratio", r.retry.work_ratio());
     r.retry.mark_sizes_used();
     ctx.count("remesh.patches_meshed_in_last_round",
               double(std::count(dirty.begin(), dirty.end(), 1)));

@@ -3,7 +3,8 @@
 // triangulation on the background mesh, features kept, sizes graded, then angle-based
 // smoothing.
 //   In:  the repaired SurfaceNetwork as background (closed, oriented), RemeshParams.
-//   Out: a new SurfaceNetwork, isotropic and graded, every vertex on the background,
+//   Out: a new SurfaceNetwork, isotropic and graded, every vertex on the background (within
+//        h / 10 with remesh.preserve_volume, which moves faces to keep region volumes),
 //        interfaces shared, junction curves kept; the target size per vertex.
 //   Next: tetra (its initial front).
 // Implementation: surface/remesh.cpp (the driver) and remesh_*.cpp; the file map is in

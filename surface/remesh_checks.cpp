@@ -138,7 +138,7 @@ RegionChecks check_regions(const core::SurfaceNetwork& bg, const core::SurfaceNe
         ctx.count("remesh.volume_change_percent.region_" + std::to_string(c.region), change);
         const double limit = params.max_volume_change_percent;
         if (limit > 0.0 && std::abs(change) > limit) {
-            if (!last_round) {
+            if (!last_round && !retry.frugal()) {
                 retry.on_volume_change(features, c.region, change, limit);
                 result.rescaled.append(" ").append(std::to_string(c.region)).append(" (");
                 result.rescaled.append(std::to_string(change)).append(" %)");

@@ -124,6 +124,21 @@ public:
     /// volume_scale(v) = min over the faces at v (after on_volume_change).
     void update_vertex_scales();
 
+    /// The stage's work budget (issue 21: a 16^3 block of random labels kept remeshing, its
+    /// shrink sites making more patches stall each round). A round's work is the triangles
+    /// it expects to make: over the patches it meshes by the front, area / (sqrt(3)/4 h^2)
+    /// at the sizes in force (the O(n) of front_triangulate.cpp). Once the rounds together
+    /// have spent kWorkBudget times the first round's, the policy turns frugal: every later
+    /// stall or crossing keeps that patch's background triangles at once, as from the
+    /// second-to-last round, and a volume change is reported, not meshed again. The stage's
+    /// work is then at most (kWorkBudget + 64) times the first round's, 64 = 1 / (1/8)^2
+    /// for the round that crosses the budget. Returns true when this call turned it frugal.
+    static constexpr double kWorkBudget = 8.0;
+    bool spend(double expected_triangles);
+    bool frugal() const { return frugal_; }
+    /// Work spent so far over the first round's.
+    double work_ratio() const { return first_work_ > 0.0 ? work_ / first_work_ : 0.0; }
+
     /// Records what makes the next round necessary (several triggers of a round are joined).
     void note(const std::string& trigger);
     /// One log line for round `round` (0-based): why it runs (the triggers noted since the
@@ -147,6 +162,8 @@ private:
     std::vector<std::uint8_t> rescaled_;             // per patch, since mark_sizes_used()
     std::vector<int> patch_stalls_, patch_crossings_;
     std::vector<std::uint8_t> copy_patch_;
+    double first_work_ = 0.0, work_ = 0.0;  // expected triangles: the first round's, all
+    bool frugal_ = false;
     std::string triggers_;  // noted since the last round_summary()
 };
 

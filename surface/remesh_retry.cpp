@@ -71,6 +71,14 @@ void RetryPolicy::mark_sizes_used() {
     std::fill(rescaled_.begin(), rescaled_.end(), 0);
 }
 
+bool RetryPolicy::spend(double expected_triangles) {
+    if (first_work_ == 0.0) first_work_ = std::max(expected_triangles, 1.0);
+    work_ += expected_triangles;
+    if (frugal_ || work_ <= kWorkBudget * first_work_) return false;
+    frugal_ = true;
+    return true;
+}
+
 void RetryPolicy::add_shrink_site(const Eigen::Vector3d& centre, double radius_in_h) {
     shrink_sites_.push_back({centre, radius_in_h * field_.at(centre, -1), generation_});
 }
@@ -78,7 +86,7 @@ void RetryPolicy::add_shrink_site(const Eigen::Vector3d& centre, double radius_i
 void RetryPolicy::on_stall(std::size_t p, const Eigen::Vector3d& place, int round) {
     // From the second-to-last round on, a finer size has no round left to prove itself: the
     // patch keeps its background triangles at once, so the last round cannot stall there.
-    if (++patch_stalls_[p] >= 2 || round + 2 >= kRounds) {
+    if (++patch_stalls_[p] >= 2 || round + 2 >= kRounds || frugal_) {
         copy_patch_[p] = 1;
         return;
     }
@@ -97,7 +105,7 @@ void RetryPolicy::on_bad_faces(const std::vector<std::int32_t>& faces,
     // As for stalls: from the second-to-last round on, finer sizes would be tried in the last
     // round, where a stall they cause is the error; the bad patches are copied instead.
     for (const std::int32_t q : bad)
-        if (++patch_crossings_[std::size_t(q)] >= 3 || round + 2 >= kRounds)
+        if (++patch_crossings_[std::size_t(q)] >= 3 || round + 2 >= kRounds || frugal_)
             copy_patch_[std::size_t(q)] = 1;
     for (const std::int32_t face : faces) {
         if (copy_patch_[std::size_t(face_patch[std::size_t(face)])]) continue;

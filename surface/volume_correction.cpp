@@ -11,6 +11,8 @@
 #include <Eigen/Sparse>
 
 #include "pipeline/core/self_intersection.h"
+#include "surface/size_field.h"
+#include "surface/surface_smoothing.h"
 
 namespace frontmesh::surface {
 namespace {
@@ -47,6 +49,18 @@ double worst_error(const std::vector<double>& volume, const std::vector<double>&
     return e;
 }
 
+// Faces of what remesh and tetra cannot take from a surface: crossing pairs, region wedges
+// under 1 degree (no tet fits; remesh's kUnmeshableWedgeDeg) and parts turned inside out.
+std::vector<std::int32_t> defect_faces(const core::SurfaceNetwork& s) {
+    std::vector<std::int32_t> faces;
+    for (const auto& [f, g] : core::self_intersections(s)) faces.insert(faces.end(), {f, g});
+    for (const ThinWedge& w : thin_region_wedges(s, 1.0))
+        faces.insert(faces.end(), w.faces.begin(), w.faces.end());
+    for (const core::InvertedPart& part : core::inverted_parts(s))
+        faces.insert(faces.end(), part.faces.begin(), part.faces.end());
+    return faces;
+}
+
 }  // namespace
 
 VolumeCorrection correct_region_volumes(core::SurfaceNetwork& surface,
@@ -81,6 +95,17 @@ VolumeCorrection correct_region_volumes(core::SurfaceNetwork& surface,
     volume.resize(labels.size(), 0.0);
     result.worst_before = worst_error(volume, target, worst);
     const std::vector<double> original = surface.xyz;
+    // A vertex facing another sheet across a thin gap of the outside moves at most a tenth of
+    // that distance, across a thin region a quarter (both sides may move): a gap between two
+    // regions (AAL's caudate and putamen) keeps four fifths of its width, which remesh needs
+    // to mesh it, while a thin layer can still take back the voxels it lost.
+    std::vector<double> cap(nv, max_offset_mm);
+    {
+        const SheetDistances d =
+            sheet_distances(surface, std::vector<double>(nv, 10.0 * max_offset_mm));
+        for (std::size_t v = 0; v < nv; ++v)
+            cap[v] = std::min({max_offset_mm, 0.25 * d.inside[v], 0.1 * d.outside[v]});
+    }
 
     // Each pass: one sparse SPD solve (n regions) and O(faces) work.
     for (int pass = 0; pass < max_passes && result.worst_before > 0.0; ++pass) {
@@ -129,30 +154,37 @@ VolumeCorrection correct_region_volumes(core::SurfaceNetwork& surface,
                 weight[static_cast<std::size_t>(v)] += area[f];
             }
         }
-        for (std::size_t v = 0; v < nv; ++v)
-            if (weight[v] > 0.0) surface.point(static_cast<std::int32_t>(v)) += move[v] / weight[v];
+        for (std::size_t v = 0; v < nv; ++v) {
+            if (!(weight[v] > 0.0)) continue;
+            const auto at = static_cast<std::ptrdiff_t>(3 * v);
+            const Eigen::Vector3d x0(original[std::size_t(at)], original[std::size_t(at) + 1],
+                                     original[std::size_t(at) + 2]);
+            Eigen::Vector3d total =
+                surface.point(static_cast<std::int32_t>(v)) + move[v] / weight[v] - x0;
+            if (total.norm() > cap[v]) total *= cap[v] / total.norm();
+            surface.point(static_cast<std::int32_t>(v)) = x0 + total;
+        }
         volume = region_volumes(surface, index_in, index_out);
         volume.resize(labels.size(), 0.0);
     }
 
-    // Moved faces that now cross others get their former vertices back.
+    // Moved faces that now cross others, close a region's wedge or turn a part inside out get
+    // their former vertices back (each round restores at least one vertex, or stops).
     if (result.passes > 0)
         for (;;) {
-            const auto pairs = core::self_intersections(surface);
-            if (pairs.empty()) break;
+            const std::vector<std::int32_t> faces = defect_faces(surface);
+            if (faces.empty()) break;
             std::size_t restored = 0;
-            for (const auto& [f, g] : pairs)
-                for (std::int32_t face : {f, g})
-                    for (std::int32_t v : surface.faces[static_cast<std::size_t>(face)]) {
-                        const auto at =
-                            static_cast<std::ptrdiff_t>(3 * static_cast<std::size_t>(v));
-                        if (std::equal(original.begin() + at, original.begin() + at + 3,
-                                       surface.xyz.begin() + at))
-                            continue;
-                        std::copy(original.begin() + at, original.begin() + at + 3,
-                                  surface.xyz.begin() + at);
-                        ++restored;
-                    }
+            for (const std::int32_t face : faces)
+                for (std::int32_t v : surface.faces[static_cast<std::size_t>(face)]) {
+                    const auto at = static_cast<std::ptrdiff_t>(3 * static_cast<std::size_t>(v));
+                    if (std::equal(original.begin() + at, original.begin() + at + 3,
+                                   surface.xyz.begin() + at))
+                        continue;
+                    std::copy(original.begin() + at, original.begin() + at + 3,
+                              surface.xyz.begin() + at);
+                    ++restored;
+                }
             result.vertices_put_back += restored;
             if (restored == 0) break;  // crossings the correction did not make
         }

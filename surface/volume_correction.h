@@ -28,8 +28,9 @@ struct VolumeCorrection {
 /// outside through its neighbours), clamped to |o| <= `max_offset_mm`; a vertex moves by
 /// the area-weighted mean of its faces' displacements. Junctions and corners average, so
 /// the system is solved again on the moved surface, at most `max_passes` times (stopping
-/// once every region is within 0.1%). Faces that then intersect get their vertices' former
-/// positions back until none does (each round restores at least one vertex, so it ends).
+/// once every region is within 0.1%). Faces that then intersect, close a region's wedge
+/// below 1 degree or turn a part inside out get their vertices' former positions back until
+/// none does (each round restores at least one moved vertex or stops, so it ends).
 VolumeCorrection correct_region_volumes(core::SurfaceNetwork& surface,
                                         const std::map<core::Label, double>& target_mm3,
                                         double max_offset_mm, int max_passes);

@@ -90,6 +90,7 @@ TEST_CASE("remesh a marching-cubes ball: uniform, quality, on the background", "
                                   surface::ExtractMethod::FlyingEdges, 1.0);
     surface::RemeshParams params;
     params.edge_length = 2.0;
+    params.preserve_volume = false;  // every vertex exactly on the background
     core::StageContext ctx;
     const auto r = surface::remesh(bg, params, ctx);
     check_remeshed(bg, r, 0.01);
@@ -106,6 +107,20 @@ TEST_CASE("remesh a marching-cubes ball: uniform, quality, on the background", "
     const auto hd = surface::hausdorff_distance(r.surface, bg);
     CHECK(hd.max() < 0.3);  // chords of a 2 mm mesh on an R = 18 mm ball
     CHECK(ctx.counters().count("remesh.faces") == 1);
+
+    // remesh.preserve_volume (the default): the chords' loss is taken back within h / 10 of
+    // the background, and the quality holds.
+    params.preserve_volume = true;
+    core::StageContext kept_ctx;
+    const auto kept = surface::remesh(bg, params, kept_ctx);
+    const double before = core::enclosed_volume(r.surface, 1),
+                 after = core::enclosed_volume(kept.surface, 1);
+    const double target = core::enclosed_volume(bg, 1);
+    CHECK(std::abs(before / target - 1.0) > 0.003);
+    CHECK(after == Approx(target).epsilon(0.001));
+    CHECK(surface::hausdorff_distance(kept.surface, bg).a_to_b <= 0.1 * 2.0 + 1e-9);
+    CHECK(surface::surface_quality(kept.surface).min_angle_deg >= 20.0);
+    CHECK(kept_ctx.counters().at("remesh.volume_error_percent") < 0.1);
 }
 
 TEST_CASE("remesh the nested three-region phantom: shared interfaces", "[remesh]") {
@@ -113,6 +128,7 @@ TEST_CASE("remesh the nested three-region phantom: shared interfaces", "[remesh]
                                   surface::ExtractMethod::SurfaceNets);
     surface::RemeshParams params;
     params.edge_length = 2.0;
+    params.preserve_volume = false;  // every vertex exactly on the background
     core::StageContext ctx;
     const auto r = surface::remesh(bg, params, ctx);
     check_remeshed(bg, r, 0.01);
@@ -136,6 +152,7 @@ TEST_CASE("remesh a split ball: the junction circle is kept and shared", "[remes
         background_of(fixtures::split_ball_image(44, 16.0), surface::ExtractMethod::SurfaceNets);
     surface::RemeshParams params;
     params.edge_length = 2.0;
+    params.preserve_volume = false;  // every vertex exactly on the background
     core::StageContext ctx;
     const auto r = surface::remesh(bg, params, ctx);
     check_remeshed(bg, r, 0.01);
