@@ -384,6 +384,8 @@ public:
 
 private:
     void info(const std::string& m) { log_.line(core::LogLevel::Info, m); }
+    /// How messages name input.surface.
+    std::string user_surface() const { return "input.surface '" + recipe_.input.surface + "'"; }
     int index_of(const std::string& name, const char* flag) const;
     void plan_stages();
     void read_label_names();
@@ -537,12 +539,15 @@ void Run::read_input() {
         info(buf);
     } else if (first_ == entry_) {
         info("reading surface " + recipe_.input.surface);
-        data_ = io::read_surface(recipe_.input.surface);
+        data_ = io::read_surface(recipe_.input.surface);  // coordinates in range, or refused
+        const auto& surface = std::get<core::SurfaceNetwork>(data_);
+        // Whatever stage it enters, every face must separate two regions (issue 21: a
+        // surface with region_in == region_out everywhere made an empty mesh and exit 0).
+        core::require_valid_regions(surface, user_surface());
         // Straight into tetra, the surface is kept exactly as it is: it must be closed,
         // oriented and clean (repair does that otherwise). A defect is bad input, exit 2.
         if (stages_[entry_].in == Kind::Surface && stages_[entry_].out == Kind::Tets)
-            core::require_meshable_surface(std::get<core::SurfaceNetwork>(data_),
-                                           "input.surface '" + recipe_.input.surface + "'");
+            core::require_meshable_surface(surface, user_surface());
     } else {
         info("reading checkpoint " + out_.checkpoint(stages_[first_ - 1]).string());
         data_ = read_checkpoint(out_.checkpoint(stages_[first_ - 1]), stages_[first_ - 1].out);
@@ -680,6 +685,10 @@ StageOutput Run::call_stage(int i, core::StageContext& ctx) {
         stop("during " + stage.name);
     } catch (const core::Error& e) {
         log_.clear_progress();
+        // The stage that takes the user's own surface (repair, or the stage --from names)
+        // finds a defect repair cannot mend: the file is bad, not frontmesh (issue 21).
+        if (surface_input_ && i == entry_ && dynamic_cast<const core::GeometryError*>(&e))
+            FM_THROW(InputError, user_surface() + ": " + e.what());
         prepare_folder();
         log_.line(core::LogLevel::Warning,
                   stage.name + " failed: " + e.what() + " [" + e.where() + "]");
