@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <map>
+#include <sstream>
 
 #include "pipeline/core/error.h"
 #include "surface/size_field.h"
@@ -47,28 +48,27 @@ ResourceEstimate remesh_result(double triangles, double h, const std::string& ba
 
 ResourceEstimate remesh_estimate(const core::SurfaceNetwork& background,
                                  const surface::RemeshParams& params) {
-    const double h = params.edge_length > 0.0 ? params.edge_length
-                                              : surface::default_edge_length(background);
+    const double h =
+        params.edge_length > 0.0 ? params.edge_length : surface::default_edge_length(background);
     double area = 0.0, triangles = 0.0;
     for (std::size_t f = 0; f < background.face_count(); ++f) {  // one pass over the faces
         const auto& t = background.faces[f];
         const double a = 0.5 * (background.point(t[1]) - background.point(t[0]))
                                    .cross(background.point(t[2]) - background.point(t[0]))
                                    .norm();
-        const double s =
-            face_size(params, h, background.region_in[f], background.region_out[f]);
+        const double s = face_size(params, h, background.region_in[f], background.region_out[f]);
         area += a;
         triangles += a / (kTriangleArea * s * s);
     }
-    return remesh_result(triangles, h, "surface area " + number(area) + " mm^2 at h = " +
-                                        number(h) + " mm");
+    return remesh_result(triangles, h,
+                         "surface area " + number(area) + " mm^2 at h = " + number(h) + " mm");
 }
 
 ResourceEstimate remesh_estimate(const core::LabelImage& image,
                                  const std::vector<core::Label>& labels,
                                  const surface::RemeshParams& params) {
-    const double h = params.edge_length > 0.0 ? params.edge_length
-                                              : 1.3 * std::cbrt(image.voxel_volume());
+    const double h =
+        params.edge_length > 0.0 ? params.edge_length : 1.3 * std::cbrt(image.voxel_volume());
     const Eigen::Vector3d& sp = image.spacing;
     const double face_area[3] = {sp.y() * sp.z(), sp.x() * sp.z(), sp.x() * sp.y()};
     // Voxel faces per label pair: the size is looked up once per pair, not per face.
@@ -89,16 +89,29 @@ ResourceEstimate remesh_estimate(const core::LabelImage& image,
         area += staircase / kStaircaseRatio;
         triangles += staircase / kStaircaseRatio / (kTriangleArea * s * s);
     }
-    return remesh_result(triangles, h, "surface area about " + number(area) + " mm^2 at h = " +
-                                        number(h) + " mm");
+    return remesh_result(
+        triangles, h, "surface area about " + number(area) + " mm^2 at h = " + number(h) + " mm");
+}
+
+double enclosed_volume(const core::SurfaceNetwork& surface) {
+    double volume = 0.0;
+    for (const core::Label region : core::region_labels(surface))
+        volume += std::max(core::enclosed_volume(surface, region), 0.0);
+    return volume;
+}
+
+void require_input_within_memory_limit(const ResourceEstimate& remesh, double volume_mm3,
+                                       bool with_tetra, const volume::TetraParams& tetra,
+                                       double max_memory_gib) {
+    require_within_memory_limit(remesh, max_memory_gib);
+    if (with_tetra)
+        require_within_memory_limit(tetra_estimate(volume_mm3, remesh.count, remesh.h_mm, tetra),
+                                    max_memory_gib);
 }
 
 ResourceEstimate tetra_estimate(const core::SurfaceNetwork& surface,
                                 const volume::TetraParams& params) {
-    double volume = 0.0;
-    for (const core::Label region : core::region_labels(surface))
-        volume += std::max(core::enclosed_volume(surface, region), 0.0);
-    return tetra_estimate(volume, static_cast<double>(surface.face_count()),
+    return tetra_estimate(enclosed_volume(surface), static_cast<double>(surface.face_count()),
                           surface::mean_edge_length(surface), params);
 }
 
@@ -108,7 +121,11 @@ ResourceEstimate tetra_estimate(double volume_mm3, double triangles, double h_mm
     const double alpha = params.stretching;
     const double layered = tets_per_layer * triangles / (1.0 - 1.0 / (alpha * alpha));
     const double tets = std::min(uniform, layered);
-    return {"tetra", "tets", tets, h_mm, tets * tetra_bytes_per_tet / kGiB,
+    return {"tetra",
+            "tets",
+            tets,
+            h_mm,
+            tets * tetra_bytes_per_tet / kGiB,
             "volume " + number(volume_mm3) + " mm^3, " + number(triangles) +
                 " surface triangles at h = " + number(h_mm) + " mm, tetra.stretching " +
                 number(alpha)};
@@ -122,11 +139,13 @@ double labelled_volume(const core::LabelImage& image, const std::vector<core::La
 
 void require_within_memory_limit(const ResourceEstimate& estimate, double max_memory_gib) {
     if (estimate.memory_gib <= max_memory_gib) return;
+    std::ostringstream limit;  // as a recipe gives it: 16, 65536, 1e-07
+    limit << max_memory_gib;
     FM_THROW(InputError,
              estimate.stage + ": expected about " + number(estimate.count) + " " +
                  estimate.elements + " (" + estimate.basis + "), about " +
-                 number(estimate.memory_gib) + " GiB of memory, more than limits.max_memory_gib = " +
-                 number(max_memory_gib) +
+                 number(estimate.memory_gib) +
+                 " GiB of memory, more than limits.max_memory_gib = " + limit.str() +
                  " GiB; choose a larger remesh.edge_length (or remesh.label_edge_length), or "
                  "raise limits.max_memory_gib on a machine with more memory");
 }

@@ -18,23 +18,25 @@ namespace frontmesh::pipeline {
 /// Default of limits.max_memory_gib, GiB.
 inline constexpr double default_max_memory_gib = 16.0;
 
-/// Peak memory per element measured with /usr/bin/time -v (maximum resident set size) on
-/// examples/colin27-brain.yaml, 2 threads, divided by the stage's output count: bytes per
-/// remeshed triangle, and per tet made by tetra. They cover the stage's own structures, its
-/// input and output; the memory of a run is dominated by the largest stage.
-inline constexpr double remesh_bytes_per_triangle = 1500.0;
-inline constexpr double tetra_bytes_per_tet = 600.0;
+/// Peak memory per element, measured with /usr/bin/time -v (maximum resident set size) on
+/// examples/colin27-brain.yaml at remesh.edge_length 0.5 mm (2 threads): `run --from remesh
+/// --until tetra` peaked at 431 MiB after remesh made 784,858 triangles and at 982 MiB after
+/// tetra made 6,518,936 tets, so 576 B per triangle and 158 B per tet (rounded up below). They
+/// cover the stage's own structures, its input and output; at 1.55 mm (80,620 triangles,
+/// 557,572 tets) the fixed part weighs more (1,600 and 257 B), the element count little.
+inline constexpr double remesh_bytes_per_triangle = 580.0;
+inline constexpr double tetra_bytes_per_tet = 160.0;
 
-/// Tets per (volume / h^3) in a region filled at a uniform size h (the mean edge length of
-/// the surface): a regular tet of edge h has volume h^3 / (6 sqrt 2), 8.5 per h^3; measured
-/// 6 on thin regions, where the front cannot grow.
-inline constexpr double tets_per_h3 = 6.0;
+/// Tets per (volume / h^3) where the front cannot grow (thin regions), h the mean edge length
+/// of the surface: 4.3 measured on examples/aal-hippocampus.yaml (15,721 tets, 7,160 mm^3,
+/// h = 1.25 mm); a regular tet of edge h would give 8.5.
+inline constexpr double tets_per_h3 = 4.5;
 
 /// Tets per surface triangle and front level: the layered front (paper §3.1) grows the size
 /// by tetra.stretching alpha per level, so level k holds about 1/alpha^(2k) of the first
-/// level's tets and a thick region about tets_per_layer x triangles / (1 - alpha^-2) (7 tets
-/// per triangle at alpha = 1.15, as measured on colin27 and the AAL atlas).
-inline constexpr double tets_per_layer = 1.7;
+/// level's tets and a thick region about tets_per_layer x triangles / (1 - alpha^-2): 2.03 on
+/// colin27 at 0.5 mm (6,518,936 tets from 784,858 triangles at alpha = 1.15), 1.69 at 1.55 mm.
+inline constexpr double tets_per_layer = 2.0;
 
 /// What a stage is expected to make and hold.
 struct ResourceEstimate {
@@ -59,7 +61,8 @@ ResourceEstimate remesh_estimate(const core::SurfaceNetwork& background,
 /// not empty, count as 0) divided by 1.5, the mean ratio of a staircase's area to the smooth
 /// surface's; the default h is 1.3 voxels (twice the mean edge of a marching-cubes surface).
 /// Cost O(voxels).
-ResourceEstimate remesh_estimate(const core::LabelImage& image, const std::vector<core::Label>& labels,
+ResourceEstimate remesh_estimate(const core::LabelImage& image,
+                                 const std::vector<core::Label>& labels,
                                  const surface::RemeshParams& params);
 
 /// Tetra on `surface` with `params`: the fewer of the uniform fill, tets_per_h3 x (volume
@@ -75,6 +78,16 @@ ResourceEstimate tetra_estimate(double volume_mm3, double triangles, double h_mm
 
 /// Volume (mm^3) of the voxels of the chosen labels (all non-zero ones when `labels` is empty).
 double labelled_volume(const core::LabelImage& image, const std::vector<core::Label>& labels);
+
+/// Before any stage runs: throws as require_within_memory_limit for `remesh` (the remesh
+/// estimate from the input), then, with `with_tetra`, for tetra on the surface remesh will
+/// make (`volume_mm3` at the remesh estimate's triangles and h).
+void require_input_within_memory_limit(const ResourceEstimate& remesh, double volume_mm3,
+                                       bool with_tetra, const volume::TetraParams& tetra,
+                                       double max_memory_gib);
+
+/// Volume (mm^3) enclosed by every region of `surface` (those turned inside out count 0).
+double enclosed_volume(const core::SurfaceNetwork& surface);
 
 /// Throws InputError "STAGE: expected about N ELEMENTS (BASIS), about M GiB of memory, more
 /// than limits.max_memory_gib = L; ..." when the estimate exceeds `max_memory_gib`, naming
