@@ -655,6 +655,9 @@ void Run::run_one(int i) {
         regions_before = core::region_labels(std::get<core::SurfaceNetwork>(data_));
     StageOutput output = call_stage(i, ctx);
     log_.clear_progress();
+    diagnostics_.finish();
+    if (const int n = diagnostics_.not_written(); n > 0)
+        ctx.count("diagnostics_not_written", static_cast<double>(n));
     if (!regions_before.empty()) {
         const auto after = core::region_labels(std::get<core::SurfaceNetwork>(output.data));
         for (const core::Label l : regions_before)
@@ -727,6 +730,7 @@ StageOutput Run::call_stage(int i, core::StageContext& ctx) {
         throw;
     } catch (const core::CancelledError&) {
         fs::remove(out_.with_ext(stage, ".json"));
+        diagnostics_.finish();
         stop("during " + stage.name);
     } catch (const core::Error& e) {
         log_.clear_progress();
@@ -735,6 +739,7 @@ StageOutput Run::call_stage(int i, core::StageContext& ctx) {
         if (surface_input_ && i == entry_ && dynamic_cast<const core::GeometryError*>(&e))
             FM_THROW(InputError, user_surface() + ": " + e.what());
         prepare_folder();
+        diagnostics_.finish();
         log_.line(core::LogLevel::Warning,
                   stage.name + " failed: " + e.what() + " [" + e.where() + "]");
         fs::remove(out_.with_ext(stage, ".json"));
