@@ -9,6 +9,7 @@
 
 #include <catch2/catch.hpp>
 
+#include "io/export.h"
 #include "io/mesh_io.h"
 #include "tests/fixtures/phantoms.h"
 #include "tests/pipeline/cli_helpers.h"
@@ -29,8 +30,8 @@ void require_bad_surface(const std::string& dir, const std::string& name,
                          const std::vector<std::string>& words, const std::string& extra = "") {
     INFO(name << " " << args);
     io::write_surface_vtu(surface, dir + "/" + name + ".vtu", {});
-    write_file(dir + "/" + name + ".yaml", "input:\n  surface: " + name +
-                                               ".vtu\noutput:\n  dir: out-" + name + "\n" + extra);
+    write_file(dir + "/" + name + ".yaml",
+               "input:\n  surface: " + name + ".vtu\noutput:\n  dir: out-" + name + "\n" + extra);
     const auto r = run_frontmesh("run " + name + ".yaml --quiet " + args, dir);
     INFO(r.err);
     CHECK(r.exit_code == 2);
@@ -73,6 +74,24 @@ TEST_CASE("coordinates out of range are bad input at repair and at tetra",
     }
 }
 
+TEST_CASE("check and convert refuse a mesh with a node astray", "[pipeline][bad_geometry]") {
+    const std::string dir = fixtures::temp_dir("bad_geometry_mesh");
+    core::TetMesh mesh = fixtures::cube_tet_mesh(2);
+    mesh.point(3).z() = 1e30;
+    io::write_tet_mesh_vtu(mesh, dir + "/spike.vtu", {});
+    io::write_mesh(mesh, dir + "/spike.msh", io::MeshFormat::Msh41);
+    for (const std::string command :
+         {"check spike.vtu", "check spike.msh", "convert spike.msh again.vtu"}) {
+        INFO(command);
+        const auto r = run_frontmesh(command, dir);
+        INFO(r.err);
+        CHECK(r.exit_code == 2);
+        CHECK_THAT(r.err, Catch::Contains("spike.") && Catch::Contains("point 3 at (") &&
+                              Catch::Contains("1e+30) mm is out of range"));
+    }
+    CHECK_FALSE(fs::exists(fs::path(dir) / "again.vtu"));
+}
+
 TEST_CASE("a given surface's geometry defects are bad input naming defect and place",
           "[pipeline][bad_geometry]") {
     const std::string dir = fixtures::temp_dir("bad_geometry_defects");
@@ -81,8 +100,9 @@ TEST_CASE("a given surface's geometry defects are bad input naming defect and pl
         s.region_out = s.region_in;
         const std::string all = std::to_string(s.face_count());
         for (const std::string from : {"", "--from remesh", "--from tetra"})
-            require_bad_surface(dir, "same" + std::to_string(from.size()), s, from,
-                                {"face 0 near (", "region_out is 1", "faces like it: " + all + " of " + all});
+            require_bad_surface(
+                dir, "same" + std::to_string(from.size()), s, from,
+                {"face 0 near (", "region_out is 1", "faces like it: " + all + " of " + all});
     }
     SECTION("some faces with the same region on both sides") {
         core::SurfaceNetwork s = fixtures::uv_sphere(10.0, 12);
@@ -112,8 +132,7 @@ TEST_CASE("a given surface's geometry defects are bad input naming defect and pl
         open.xyz = s.xyz;
         for (std::size_t f = 0; f < s.face_count(); ++f) {
             const auto& t = s.faces[f];
-            if (std::max({s.point(t[0]).z(), s.point(t[1]).z(), s.point(t[2]).z()}) > 8.0)
-                continue;
+            if (std::max({s.point(t[0]).z(), s.point(t[1]).z(), s.point(t[2]).z()}) > 8.0) continue;
             open.add_face(t[0], t[1], t[2], s.region_in[f], s.region_out[f]);
         }
         require_bad_surface(dir, "hole", open, "", {"hole of", "repair.max_hole_edges", "mm"},
