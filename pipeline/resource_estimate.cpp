@@ -89,8 +89,10 @@ ResourceEstimate remesh_estimate(const core::LabelImage& image,
         area += staircase / kStaircaseRatio;
         triangles += staircase / kStaircaseRatio / (kTriangleArea * s * s);
     }
-    return remesh_result(
+    ResourceEstimate e = remesh_result(
         triangles, h, "surface area about " + number(area) + " mm^2 at h = " + number(h) + " mm");
+    e.slack = 2.0;
+    return e;
 }
 
 double enclosed_volume(const core::SurfaceNetwork& surface) {
@@ -104,9 +106,10 @@ void require_input_within_memory_limit(const ResourceEstimate& remesh, double vo
                                        bool with_tetra, const volume::TetraParams& tetra,
                                        double max_memory_gib) {
     require_within_memory_limit(remesh, max_memory_gib);
-    if (with_tetra)
-        require_within_memory_limit(tetra_estimate(volume_mm3, remesh.count, remesh.h_mm, tetra),
-                                    max_memory_gib);
+    if (!with_tetra) return;
+    ResourceEstimate tets = tetra_estimate(volume_mm3, remesh.count, remesh.h_mm, tetra);
+    tets.slack = remesh.slack;
+    require_within_memory_limit(tets, max_memory_gib);
 }
 
 ResourceEstimate tetra_estimate(const core::SurfaceNetwork& surface,
@@ -138,7 +141,7 @@ double labelled_volume(const core::LabelImage& image, const std::vector<core::La
 }
 
 void require_within_memory_limit(const ResourceEstimate& estimate, double max_memory_gib) {
-    if (estimate.memory_gib <= max_memory_gib) return;
+    if (estimate.memory_gib <= estimate.slack * max_memory_gib) return;
     std::ostringstream limit;  // as a recipe gives it: 16, 65536, 1e-07
     limit << max_memory_gib;
     FM_THROW(InputError,

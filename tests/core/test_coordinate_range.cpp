@@ -31,8 +31,7 @@ TEST_CASE("a point astray or non-finite and a geometry too small are refused by 
         CHECK_THROWS_AS(require_coordinates_in_range(xyz, "in.vtp"), InputError);
         CHECK_THROWS_WITH(require_coordinates_in_range(xyz, "in.vtp"),
                           Contains("in.vtp: point 7 at (") && Contains("1e+30") &&
-                              Contains("out of range") && Contains("1e+07 mm") &&
-                              !Contains("\n"));
+                              Contains("out of range") && Contains("1e+07 mm") && !Contains("\n"));
     }
     SECTION("moved to 1e12 mm") {
         for (std::size_t i = 0; i < xyz.size(); i += 3) xyz[i] += 1e12;

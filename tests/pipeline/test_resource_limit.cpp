@@ -45,8 +45,10 @@ TEST_CASE("remesh estimate: area / h^2 with per label sizes from a surface or an
     // From the voxels: a staircase's area over 1.5 is the smooth sphere's, within 10%.
     params.label_edge_length.clear();
     const core::LabelImage image = fixtures::sphere_image(45, 15.0);
-    CHECK(pipeline::remesh_estimate(image, {}, params).count ==
-          Approx(sphere_triangles(15.0, 1.0)).epsilon(0.1));
+    const pipeline::ResourceEstimate from_voxels = pipeline::remesh_estimate(image, {}, params);
+    CHECK(from_voxels.count == Approx(sphere_triangles(15.0, 1.0)).epsilon(0.1));
+    CHECK(from_voxels.slack == 2.0);
+    CHECK(e.slack == 1.0);
     // Labels not chosen count as outside: nothing of label 2 to mesh.
     CHECK(pipeline::remesh_estimate(image, {2}, params).count == 0.0);
     // h = 0: the stage's own default (twice the background's mean edge length).
@@ -62,8 +64,7 @@ TEST_CASE("tetra estimate: the fewer of a uniform and a layered fill", "[pipelin
     CHECK(thin.count == Approx(pipeline::tets_per_h3 * 10.0));
     // Thick: the front grows by alpha per level, so the surface's triangles bound it.
     const auto thick = pipeline::tetra_estimate(1e6, 1000.0, 1.0, params);
-    CHECK(thick.count ==
-          Approx(pipeline::tets_per_layer * 1000.0 / (1.0 - 1.0 / (1.15 * 1.15))));
+    CHECK(thick.count == Approx(pipeline::tets_per_layer * 1000.0 / (1.0 - 1.0 / (1.15 * 1.15))));
     params.stretching = 1.05;  // slower growth: more levels, more tets
     CHECK(pipeline::tetra_estimate(1e6, 1000.0, 1.0, params).count > thick.count);
     // From a surface: its enclosed volume and faces.
@@ -84,6 +85,11 @@ TEST_CASE("an estimate beyond limits.max_memory_gib is refused naming stage and 
                           Catch::Contains("27.9 GiB") &&
                           Catch::Contains("limits.max_memory_gib = 16 GiB") &&
                           Catch::Contains("remesh.edge_length"));
+    // An estimate from voxels overstates a folded surface: refused only beyond its slack.
+    pipeline::ResourceEstimate from_voxels = e;
+    from_voxels.slack = 2.0;
+    CHECK_NOTHROW(pipeline::require_within_memory_limit(from_voxels, 16.0));
+    CHECK_THROWS_AS(pipeline::require_within_memory_limit(from_voxels, 13.0), core::InputError);
 }
 
 TEST_CASE("a tiny remesh.edge_length is refused at once by run and validate",
