@@ -41,6 +41,16 @@ void require_bad_surface(const std::string& dir, const std::string& name,
     CHECK_FALSE(fs::exists(fs::path(dir) / ("out-" + name)));
 }
 
+// `frontmesh validate` on the recipe require_bad_surface wrote: the same line.
+void require_validate_refuses(const std::string& dir, const std::string& name,
+                              const std::string& args, const std::string& words) {
+    INFO("validate " << name << " " << args);
+    const auto r = run_frontmesh("validate " + name + ".yaml " + args, dir);
+    INFO(r.err);
+    CHECK(r.exit_code == 2);
+    CHECK_THAT(r.err, Catch::Contains(name + ".vtu") && Catch::Contains(words));
+}
+
 // A sphere of region 1 and a second one overlapping it, also of region 1.
 core::SurfaceNetwork overlapping_spheres() {
     core::SurfaceNetwork s = fixtures::uv_sphere(10.0, 12);
@@ -71,6 +81,8 @@ TEST_CASE("coordinates out of range are bad input at repair and at tetra",
         for (double& c : tiny.xyz) c *= 1e-30;
         require_bad_surface(dir, "tiny" + tag, tiny, from,
                             {"mm across", "too small to mesh", "bounding box from ("});
+        require_validate_refuses(dir, "spike" + tag, from, "out of range");
+        require_validate_refuses(dir, "tiny" + tag, from, "too small to mesh");
     }
 }
 
@@ -99,10 +111,13 @@ TEST_CASE("a given surface's geometry defects are bad input naming defect and pl
         core::SurfaceNetwork s = fixtures::uv_sphere(10.0, 12);
         s.region_out = s.region_in;
         const std::string all = std::to_string(s.face_count());
-        for (const std::string from : {"", "--from remesh", "--from tetra"})
+        for (const std::string from : {"", "--from remesh", "--from tetra"}) {
+            const std::string name = "same" + std::to_string(from.size());
             require_bad_surface(
-                dir, "same" + std::to_string(from.size()), s, from,
+                dir, name, s, from,
                 {"face 0 near (", "region_out is 1", "faces like it: " + all + " of " + all});
+            require_validate_refuses(dir, name, from, "region_out is 1");
+        }
     }
     SECTION("some faces with the same region on both sides") {
         core::SurfaceNetwork s = fixtures::uv_sphere(10.0, 12);
@@ -116,6 +131,8 @@ TEST_CASE("a given surface's geometry defects are bad input naming defect and pl
                             {"self-intersecting face pairs", "near (", "mm"});
         require_bad_surface(dir, "crossing_tetra", overlapping_spheres(), "--from tetra",
                             {"region 1", "near (", "mm"});
+        // validate checks what a run checks before any stage: with --from tetra, meshable.
+        require_validate_refuses(dir, "crossing_tetra", "--from tetra", "region 1");
     }
     SECTION("a non-manifold fin on a closed surface") {
         core::SurfaceNetwork s = fixtures::uv_sphere(10.0, 12);

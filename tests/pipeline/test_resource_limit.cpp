@@ -126,9 +126,12 @@ TEST_CASE("a tiny remesh.edge_length is refused at once by run and validate",
     write_file(dir + "/tetra.yaml",
                "input:\n  surface: sphere.vtu\noutput:\n  dir: out-tetra\nlimits:\n  "
                "max_memory_gib: 0.0000001\n");
-    const auto tetra = run_frontmesh("run tetra.yaml --quiet --from tetra", dir);
-    INFO(tetra.err);
-    CHECK(tetra.exit_code == 2);
-    CHECK_THAT(tetra.err, Catch::Contains("tetra: expected about") && Catch::Contains("tets") &&
-                              Catch::Contains("limits.max_memory_gib = 1e-07 GiB"));
+    for (const std::string command : {"run", "validate"}) {
+        const auto tetra = run_frontmesh(command + " tetra.yaml --quiet --from tetra", dir);
+        INFO(tetra.err);
+        CHECK(tetra.exit_code == 2);
+        CHECK_THAT(tetra.err, Catch::Contains("tetra: expected about") && Catch::Contains("tets") &&
+                                  Catch::Contains("limits.max_memory_gib = 1e-07 GiB"));
+    }
+    CHECK_FALSE(fs::exists(fs::path(dir) / "out-tetra"));
 }
