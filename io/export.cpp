@@ -20,6 +20,7 @@
 
 #include "io/atomic_file.h"
 #include "io/export_detail.h"
+#include "pipeline/core/coordinate_range.h"
 #include "pipeline/core/error.h"
 #include "pipeline/core/quality.h"
 
@@ -347,6 +348,7 @@ core::TetMesh read_mesh(const std::string& path, LabelTable* names, MeshReadInfo
         for (std::int32_t v : t)
             if (v < 0 || static_cast<std::size_t>(v) >= n)
                 FM_THROW(InputError, path + ": a triangle refers to a node that does not exist");
+    core::require_coordinates_in_range(raw.mesh.xyz, path);
     if (names)
         for (const auto& [label, name] : raw.names.names()) names->set(label, name);
     return settle(std::move(raw), info, keep_orientation);

@@ -131,7 +131,7 @@ struct MeshReadInfo {
 /// (core::derive_boundary_faces). Region names found in the file go to `names`.
 /// Throws InputError naming the file (and line where known) on bad or unsupported input
 /// (binary MSH 2.2 and binary .mesh; other element types are skipped; a file without tets
-/// is an error).
+/// is an error; points out of range: core::require_coordinates_in_range).
 /// With `keep_orientation` tets keep the file's node order even when their volume is
 /// negative (for checking a mesh as it is).
 core::TetMesh read_mesh(const std::string& path, LabelTable* names = nullptr,

@@ -49,6 +49,7 @@
 #include <vtkXMLUnstructuredGridWriter.h>
 
 #include "io/atomic_file.h"
+#include "pipeline/core/coordinate_range.h"
 #include "pipeline/core/error.h"
 #include "pipeline/core/quality.h"
 
@@ -922,6 +923,7 @@ core::SurfaceNetwork read_surface(const std::string& path, FieldStrings* fields)
                                  "' (supported: .vtu, .vtp, .stl, .ply, .off)");
     }
     if (surface.face_count() == 0) FM_THROW(InputError, quoted(path) + " contains no triangles");
+    core::require_coordinates_in_range(surface.xyz, quoted(path));
     return surface;
 }
 
@@ -1118,6 +1120,7 @@ core::TetMesh read_tet_mesh(const std::string& path, FieldStrings* fields) {
 
     core::TetMesh mesh;
     copy_points(grid, path, mesh.xyz);
+    core::require_coordinates_in_range(mesh.xyz, quoted(path));
     vtkDataArray* region = region_array(grid, "region", path);
     vtkUnsignedCharArray* types = grid->GetCellTypesArray();
     const auto n_nodes = static_cast<vtkIdType>(mesh.node_count());

@@ -33,7 +33,9 @@ void write_surface_vtu(const core::SurfaceNetwork& surface, const std::string& p
 /// and `region_out` are used when present; otherwise every face gets region_in = 1,
 /// region_out = 0. Field-data strings are returned in `fields` when given. Coincident
 /// points are kept as they are (repair merges them). Throws InputError naming the file
-/// when it is missing, of an unknown format, empty, or has non-triangle cells.
+/// when it is missing, of an unknown format, empty, has non-triangle cells, or its points
+/// are out of range (core::require_coordinates_in_range: beyond 1e7 mm, or all within
+/// 1e-4 mm).
 core::SurfaceNetwork read_surface(const std::string& path, FieldStrings* fields = nullptr);
 
 /// A colour (sRGB, 0..255) per region label.
@@ -69,7 +71,8 @@ void write_surface_vtp(const core::TetMesh& mesh, const std::vector<std::int64_t
 /// Reads a tetrahedral mesh from .vtu (as written by write_tet_mesh_vtu, or any VTU of tets:
 /// region from a cell array `region` when present, else 1; without boundary field data the
 /// boundary faces are derived: faces of one tet, or between tets of different regions).
-/// Tets of negative volume are reordered. Throws InputError naming the file on bad input.
+/// Tets of negative volume are reordered. Throws InputError naming the file on bad input,
+/// points out of range included (core::require_coordinates_in_range).
 core::TetMesh read_tet_mesh(const std::string& path, FieldStrings* fields = nullptr);
 
 /// Writes geometry a stage handed to the diagnostics sink as a VTK XML unstructured grid,

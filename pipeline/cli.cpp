@@ -15,12 +15,15 @@
 #include "io/export.h"
 #include "io/image_reader.h"
 #include "io/label_table.h"
+#include "io/mesh_io.h"
 #include "pipeline/check.h"
 #include "pipeline/cohort.h"
 #include "pipeline/core/error.h"
 #include "pipeline/core/input_file.h"
+#include "pipeline/core/surface_check.h"
 #include "pipeline/output_dir.h"
 #include "pipeline/recipe.h"
+#include "pipeline/resource_estimate.h"
 #include "pipeline/runner.h"
 #include "pipeline/version.h"
 
@@ -315,6 +318,29 @@ int run_cohort_command(const Arguments& args) {
     return result.count(SubjectStatus::Failed) ? 1 : 0;
 }
 
+// validate with input.surface: the surface is read and checked as a run with the same
+// --from and --until checks it (coordinates and labels; with --from tetra, meshable as it
+// is), and the work of remesh and tetra on it estimated against limits.max_memory_gib
+// (issue 21); repair changes the surface's extent little.
+void validate_surface_input(const Recipe& recipe, const std::string& from,
+                            const std::string& until) {
+    const std::string source = "input.surface '" + recipe.input.surface + "'";
+    const core::SurfaceNetwork surface = io::read_surface(recipe.input.surface);
+    core::require_valid_regions(surface, source);
+    if (from == "refine") return;  // the run reads its 04-tetra checkpoint instead
+    if (from == "tetra") {
+        core::require_meshable_surface(surface, source);
+        require_within_memory_limit(tetra_estimate(surface, recipe.tetra),
+                                    recipe.limits.max_memory_gib);
+        return;
+    }
+    const bool tetra = until.empty() || until == "tetra" || until == "refine";
+    if (!until.empty() && until != "remesh" && !tetra) return;
+    require_input_within_memory_limit(remesh_estimate(surface, recipe.remesh),
+                                      enclosed_volume(surface), tetra, recipe.tetra,
+                                      recipe.limits.max_memory_gib);
+}
+
 // "key: default" then, from column 48, "# doc (unit, range)".
 void print_keys() {
     for (const RecipeKey& k : recipe_keys()) {
@@ -422,6 +448,8 @@ int run_cli(int argc, char** argv) {
                                    .spacing = recipe.input.spacing,
                                    .max_image_gib = recipe.input.max_image_gib});
         if (args.command == "validate") {
+            if (!recipe.input.surface.empty())
+                validate_surface_input(recipe, args.from, args.until);
             std::cout << args.recipe << ": valid; output in " << recipe.output.dir << '\n';
             return 0;
         }

@@ -29,11 +29,29 @@ void DiagnosticsWriter::start(const std::string& stage) {
     const std::lock_guard lock(mutex_);
     stage_ = stage;
     written_.clear();
+    not_written_ = 0;
     for (const fs::path& file : files_of(folder_, stage)) fs::remove(file);
+}
+
+void DiagnosticsWriter::finish() {
+    const std::lock_guard lock(mutex_);
+    if (not_written_ > 0 && log_)
+        log_(core::LogLevel::Info, "diagnostics: " + std::to_string(not_written_) + " more of " +
+                                       stage_ + " not written (at most " +
+                                       std::to_string(max_files_per_run) + " files per run)");
+}
+
+int DiagnosticsWriter::not_written() const {
+    const std::lock_guard lock(mutex_);
+    return not_written_;
 }
 
 void DiagnosticsWriter::write(core::Diagnostic diagnostic) {
     const std::lock_guard lock(mutex_);
+    if (written_in_run_ >= max_files_per_run) {
+        ++not_written_;
+        return;
+    }
     const std::string base = stage_ + "-" + safe_name(diagnostic.name);
     std::string name = base;
     for (int n = 2; std::find(written_.begin(), written_.end(), name) != written_.end(); ++n)
@@ -48,6 +66,7 @@ void DiagnosticsWriter::write(core::Diagnostic diagnostic) {
         return;
     }
     written_.push_back(name);
+    ++written_in_run_;
     if (log_)
         log_(core::LogLevel::Info,
              "diagnostic: wrote " + file.string() + " (" + diagnostic.what + ")");

@@ -17,15 +17,23 @@ namespace frontmesh::pipeline {
 /// call it from TBB threads. NAME is the diagnostic's name with characters other than
 /// letters, digits, '-', '_' and '.' replaced by '_'; a name given twice in one stage gets
 /// "-2", "-3", ... A file that cannot be written is a logged warning, not an error of the
-/// stage.
+/// stage. At most max_files_per_run files are written per run (issue 21: remesh retries on a
+/// 16^3 block of random labels wrote 642 files, 38 MB): the first ones to arrive; the rest
+/// are counted (not_written()) and named in one log line per stage.
 class DiagnosticsWriter {
 public:
+    static constexpr int max_files_per_run = 20;
+
     /// `fields` go into every file's field data (with "stage").
     DiagnosticsWriter(std::filesystem::path folder, core::StageContext::LogSink log,
                       io::FieldStrings fields);
 
     /// Starts `stage`: its files of an earlier run are removed.
     void start(const std::string& stage);
+    /// Ends the stage started last: logs how many of its diagnostics were not written.
+    void finish();
+    /// Diagnostics of the stage started last that were not written (over the cap).
+    int not_written() const;
     /// Writes `diagnostic` for the stage started last.
     void write(core::Diagnostic diagnostic);
     /// A sink for a StageContext that calls write(); valid while this object lives.
@@ -38,12 +46,14 @@ public:
                                                        const std::string& stage);
 
 private:
-    std::mutex mutex_;
+    mutable std::mutex mutex_;
     std::filesystem::path folder_;
     core::StageContext::LogSink log_;
     io::FieldStrings fields_;
     std::string stage_;
     std::vector<std::string> written_;  // names of this stage's files
+    int written_in_run_ = 0;            // files of every stage of this run
+    int not_written_ = 0;               // this stage's diagnostics over the cap
 };
 
 }  // namespace frontmesh::pipeline

@@ -296,6 +296,15 @@ void add_output_keys(std::vector<KeySpec>& specs) {
                      }});
 }
 
+void add_limits_keys(std::vector<KeySpec>& specs) {
+    const core::ParamRange gib = core::above_up_to(0.0, 65536.0);
+    specs.push_back({"limits.max_memory_gib", "16", gib.text(), "GiB",
+                     "memory remesh or tetra may be expected to take (area/h^2, volume/h^3)",
+                     [=](const YAML::Node& n, Recipe& r, const Where& w) {
+                         r.limits.max_memory_gib = as_number(n, w, gib);
+                     }});
+}
+
 // The stages' keys a table cannot set by itself.
 Apply extract_method() {
     return [](const YAML::Node& n, Recipe& r, const Where& w) {
@@ -333,6 +342,7 @@ const std::vector<KeySpec>& key_specs() {
         std::vector<KeySpec> s;
         add_input_keys(s);
         add_output_keys(s);
+        add_limits_keys(s);
         add_stage_keys(s, &Recipe::extract, surface::extract_keys(),
                        {{"extract.method", extract_method()}});
         add_stage_keys(s, &Recipe::repair, surface::repair_keys());

@@ -9,6 +9,7 @@
 
 #include "io/split_interfaces.h"
 #include "pipeline/core/label_image.h"
+#include "pipeline/resource_estimate.h"
 #include "surface/extract.h"
 #include "surface/remesh.h"
 #include "surface/repair.h"
@@ -38,6 +39,13 @@ struct OutputSection {
     bool allow_input_folder = false;          ///< dir may be (or contain) the input's folder
 };
 
+/// Limits on the work a run may take on (issue 21): estimated before the stages that could
+/// run away, refused beyond them (pipeline/resource_estimate.h).
+struct LimitsSection {
+    double max_memory_gib =
+        default_max_memory_gib;  ///< GiB remesh or tetra may be expected to take
+};
+
 struct Recipe {
     std::string path;  ///< the recipe file, absolute
     /// Every key with the value in effect (default, then the file, then --set) as YAML flow
@@ -46,6 +54,7 @@ struct Recipe {
     std::vector<std::pair<std::string, std::string>> values;
     InputSection input;
     OutputSection output;
+    LimitsSection limits;
     surface::ExtractParams extract;
     surface::RepairParams repair;
     surface::RemeshParams remesh;

@@ -32,6 +32,7 @@
 #include "pipeline/output_dir.h"
 #include "pipeline/quality_report.h"
 #include "pipeline/report.h"
+#include "pipeline/resource_estimate.h"
 #include "pipeline/terminal.h"
 #include "pipeline/version.h"
 #include "surface/extract.h"
@@ -375,6 +376,7 @@ public:
         skip_up_to_date_stages();
         check_cancelled("before reading the input");
         read_input();
+        check_input_resources();
         if (first_ > last_)
             info("every stage up to " + stages_[last_].name + " is up to date; nothing to run");
         mark_reused_stages();
@@ -384,6 +386,8 @@ public:
 
 private:
     void info(const std::string& m) { log_.line(core::LogLevel::Info, m); }
+    /// How messages name input.surface.
+    std::string user_surface() const { return "input.surface '" + recipe_.input.surface + "'"; }
     int index_of(const std::string& name, const char* flag) const;
     void plan_stages();
     void read_label_names();
@@ -399,6 +403,9 @@ private:
     void mark_reused_stages();
     void run_one(int i);
     StageOutput call_stage(int i, core::StageContext& ctx);
+    bool runs(const std::string& stage) const;
+    void check_resources(int i);
+    void check_input_resources();
     Quality write_checkpoint(int i, const StageOutput& output, core::StageContext& ctx);
     void write_stage_summary(int i, const core::StageContext& ctx, double wall,
                              const Quality& quality, std::chrono::system_clock::time_point started);
@@ -537,12 +544,15 @@ void Run::read_input() {
         info(buf);
     } else if (first_ == entry_) {
         info("reading surface " + recipe_.input.surface);
-        data_ = io::read_surface(recipe_.input.surface);
+        data_ = io::read_surface(recipe_.input.surface);  // coordinates in range, or refused
+        const auto& surface = std::get<core::SurfaceNetwork>(data_);
+        // Whatever stage it enters, every face must separate two regions (issue 21: a
+        // surface with region_in == region_out everywhere made an empty mesh and exit 0).
+        core::require_valid_regions(surface, user_surface());
         // Straight into tetra, the surface is kept exactly as it is: it must be closed,
         // oriented and clean (repair does that otherwise). A defect is bad input, exit 2.
         if (stages_[entry_].in == Kind::Surface && stages_[entry_].out == Kind::Tets)
-            core::require_meshable_surface(std::get<core::SurfaceNetwork>(data_),
-                                           "input.surface '" + recipe_.input.surface + "'");
+            core::require_meshable_surface(surface, user_surface());
     } else {
         info("reading checkpoint " + out_.checkpoint(stages_[first_ - 1]).string());
         data_ = read_checkpoint(out_.checkpoint(stages_[first_ - 1]), stages_[first_ - 1].out);
@@ -645,6 +655,9 @@ void Run::run_one(int i) {
         regions_before = core::region_labels(std::get<core::SurfaceNetwork>(data_));
     StageOutput output = call_stage(i, ctx);
     log_.clear_progress();
+    diagnostics_.finish();
+    if (const int n = diagnostics_.not_written(); n > 0)
+        ctx.count("diagnostics_not_written", static_cast<double>(n));
     if (!regions_before.empty()) {
         const auto after = core::region_labels(std::get<core::SurfaceNetwork>(output.data));
         for (const core::Label l : regions_before)
@@ -665,22 +678,68 @@ void Run::run_one(int i) {
     write_stage_summary(i, ctx, wall, quality, started);
 }
 
+// True when this run computes `stage`.
+bool Run::runs(const std::string& stage) const {
+    for (int i = first_; i <= last_; ++i)
+        if (stages_[i].name == stage) return true;
+    return false;
+}
+
+// Runaway work is refused before it starts (issue 21): remesh and tetra are estimated from
+// the surface they are about to take, and refused (InputError, exit 2) beyond
+// limits.max_memory_gib.
+void Run::check_resources(int i) {
+    const std::string& name = stages_[i].name;
+    if (name != "remesh" && name != "tetra") return;
+    const auto& surface = std::get<core::SurfaceNetwork>(data_);
+    const ResourceEstimate estimate = name == "remesh" ? remesh_estimate(surface, recipe_.remesh)
+                                                       : tetra_estimate(surface, recipe_.tetra);
+    log_.note(name + ": expected about " + json_number(std::round(estimate.count)) + " " +
+              estimate.elements + " (" + estimate.basis + "), about " +
+              json_number(estimate.memory_gib) + " GiB");
+    require_within_memory_limit(estimate, recipe_.limits.max_memory_gib);
+}
+
+// The same estimates from the input, before any stage: a remesh.edge_length far too small
+// is refused at once, with nothing written, rather than after extract and repair. The
+// surface remesh takes is about the input's: an image's voxel boundaries, or the surface.
+void Run::check_input_resources() {
+    if (!runs("remesh")) return;
+    if (const auto* image = std::get_if<core::LabelImage>(&data_))
+        require_input_within_memory_limit(
+            remesh_estimate(*image, recipe_.extract.labels, recipe_.remesh),
+            labelled_volume(*image, recipe_.extract.labels), runs("tetra"), recipe_.tetra,
+            recipe_.limits.max_memory_gib);
+    else if (const auto* surface = std::get_if<core::SurfaceNetwork>(&data_);
+             surface != nullptr && first_ == entry_)
+        require_input_within_memory_limit(remesh_estimate(*surface, recipe_.remesh),
+                                          enclosed_volume(*surface), runs("tetra"), recipe_.tetra,
+                                          recipe_.limits.max_memory_gib);
+}
+
 // Runs stage i on data_. A failure is logged and recorded in summary.json before it goes
 // on to the caller; bad input is not (nothing is written for it).
 StageOutput Run::call_stage(int i, core::StageContext& ctx) {
     const StageDef& stage = stages_[i];
     try {
         ctx.check_cancelled();
+        check_resources(i);
         return stage.run(data_, recipe_, ctx);
     } catch (const core::InputError&) {
         log_.clear_progress();
         throw;
     } catch (const core::CancelledError&) {
         fs::remove(out_.with_ext(stage, ".json"));
+        diagnostics_.finish();
         stop("during " + stage.name);
     } catch (const core::Error& e) {
         log_.clear_progress();
+        // The stage that takes the user's own surface (repair, or the stage --from names)
+        // finds a defect repair cannot mend: the file is bad, not frontmesh (issue 21).
+        if (surface_input_ && i == entry_ && dynamic_cast<const core::GeometryError*>(&e))
+            FM_THROW(InputError, user_surface() + ": " + e.what());
         prepare_folder();
+        diagnostics_.finish();
         log_.line(core::LogLevel::Warning,
                   stage.name + " failed: " + e.what() + " [" + e.where() + "]");
         fs::remove(out_.with_ext(stage, ".json"));

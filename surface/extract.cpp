@@ -1028,6 +1028,22 @@ core::SurfaceNetwork extract(const core::LabelImage& image, const ExtractParams&
     }
     name_lost_components(image, original, labels, dropped, cleanup_names(params), log);
     log.finish();
+    // Nothing left to mesh is the image's or the recipe's doing, not a failure of a later
+    // stage (issue 21: a single labelled voxel or a label blurred away ended in an internal
+    // error): name the labels and what removed them, with a place.
+    if (out.face_count() == 0) {
+        std::string why = " (" + cleanup_names(params) + " or the contour left no face)";
+        if (!ctx.dropped_components().empty()) {
+            const core::DroppedComponent& d = ctx.dropped_components().front();
+            why = "; label " + std::to_string(d.label) + ": component of " +
+                  std::to_string(d.voxels) + (d.voxels == 1 ? " voxel" : " voxels") + " at (" +
+                  format_number(d.position_mm[0]) + ", " + format_number(d.position_mm[1]) + ", " +
+                  format_number(d.position_mm[2]) + ") mm not meshed: " + d.reason;
+        }
+        FM_THROW(InputError, "input.image '" + image.source +
+                                 "': nothing left to mesh: no surface around label(s) " +
+                                 label_list(chosen) + why);
+    }
     // A chosen label without a face is always named, whatever the cap on the lines above.
     const std::vector<Label> meshed = core::region_labels(out);
     for (Label l : chosen)

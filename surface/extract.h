@@ -91,7 +91,8 @@ void validate(const ExtractParams& params);
 /// meshed at all ...". Counters `extract.dropped_components`,
 /// `extract.dropped_component_voxels`, `extract.filled_cavities`.
 /// Throws InputError ("input.labels: ...") when a chosen label is absent from the image,
-/// or the image has no labelled voxel.
+/// or the image has no labelled voxel; InputError "input.image 'FILE': nothing left to
+/// mesh: ..." (naming the first component left out, its place and why) when no face is left.
 core::SurfaceNetwork extract(const core::LabelImage& image, const ExtractParams& params,
                              core::StageContext& ctx);
 

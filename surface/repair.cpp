@@ -15,6 +15,7 @@
 
 #include "pipeline/core/error.h"
 #include "pipeline/core/self_intersection.h"
+#include "pipeline/core/surface_check.h"
 #include "surface/repair_internal.h"
 
 namespace frontmesh::surface {
@@ -87,18 +88,30 @@ void check_self_intersections(const SurfaceNetwork& net, const RepairParams& par
 
 void verify(const SurfaceNetwork& net, const RepairParams& params, core::StageContext& ctx) {
     std::size_t nonmanifold = 0;
+    // The first bad edge names the place (issue 21: a defect of a user's surface is reported
+    // with a position).
+    auto first_place = [&](core::Label region) {
+        if (const auto d = core::first_boundary_defect(net); d && d->region == region)
+            return "; first at edge (" + std::to_string(d->lo) + ", " + std::to_string(d->hi) +
+                   ") near " + format_point(d->place) + " mm";
+        for (std::size_t f = 0; f < net.face_count(); ++f)  // inside out as a whole
+            if (net.region_in[f] == region || net.region_out[f] == region)
+                return "; its face " + std::to_string(f) + " near " +
+                       format_point(net.point(net.faces[f][0])) + " mm";
+        return std::string();
+    };
     for (const core::RegionBoundaryCheck& c : core::check_region_boundaries(net)) {
         if (!c.is_closed())
             FM_THROW(GeometryError, "repair: region " + std::to_string(c.region) +
                                         " is not closed: " + std::to_string(c.open_edges) +
-                                        " open edges remain" +
+                                        " open edges remain" + first_place(c.region) +
                                         (params.fill_holes ? "" : " (repair.fill_holes is off)"));
         if (!c.is_oriented())
             FM_THROW(GeometryError,
                      "repair: region " + std::to_string(c.region) +
                          " is not consistently oriented: " + std::to_string(c.misoriented_edges) +
                          " misoriented edges, enclosed volume " + format_number(c.volume) +
-                         " mm^3");
+                         " mm^3" + first_place(c.region));
         nonmanifold += c.nonmanifold_edges;
     }
     ctx.info("repair: every region closed and oriented (" + std::to_string(net.vertex_count()) +

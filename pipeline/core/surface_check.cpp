@@ -25,26 +25,11 @@ std::string near(const Eigen::Vector3d& p) {
     FM_THROW(InputError, source + ": " + what);
 }
 
-void require_valid_faces(const SurfaceNetwork& s, const std::string& source) {
-    const auto n = static_cast<std::int64_t>(s.vertex_count());
-    for (std::size_t v = 0; v < s.vertex_count(); ++v)
-        if (!s.point(std::int32_t(v)).allFinite())
-            defect(source, "vertex " + std::to_string(v) + " has a non-finite coordinate");
-    if (s.face_count() == 0) defect(source, "the surface has no triangles");
+// Faces that repeat a vertex or have zero area: repair drops them, tetra cannot use them.
+void require_proper_faces(const SurfaceNetwork& s, const std::string& source) {
     for (std::size_t f = 0; f < s.face_count(); ++f) {
         const auto& t = s.faces[f];
-        for (const auto v : t)
-            if (v < 0 || v >= n)
-                defect(source, "face " + std::to_string(f) + " names vertex " + std::to_string(v) +
-                                   ", but there are " + std::to_string(n) + " vertices");
         const std::string where = "face " + std::to_string(f) + " " + near(s.point(t[0]));
-        if (s.region_in[f] <= 0)
-            defect(source, where + ": region_in is " + std::to_string(s.region_in[f]) +
-                               "; it must be a positive label (the region behind the face)");
-        if (s.region_out[f] < 0 || s.region_out[f] == s.region_in[f])
-            defect(source, where + ": region_out is " + std::to_string(s.region_out[f]) +
-                               "; it must be 0 (outside) or another region than region_in " +
-                               std::to_string(s.region_in[f]));
         if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2])
             defect(source,
                    where + " (region " + std::to_string(s.region_in[f]) + ") repeats a vertex");
@@ -55,9 +40,70 @@ void require_valid_faces(const SurfaceNetwork& s, const std::string& source) {
     }
 }
 
+// Every region encloses a positive volume: its faces point out of it.
+void require_positive_volumes(const SurfaceNetwork& s, const std::string& source) {
+    for (const Label region : region_labels(s)) {
+        const double volume = enclosed_volume(s, region);
+        if (!(volume > 0.0)) {
+            std::size_t f = 0;
+            while (s.region_in[f] != region && s.region_out[f] != region) ++f;
+            std::ostringstream v;
+            v << volume;
+            defect(source, "region " + std::to_string(region) + " encloses " + v.str() + " mm^3 " +
+                               near(s.point(s.faces[f][0])) +
+                               ": its faces point into it; they must point out of region_in");
+        }
+    }
+}
+
+}  // namespace
+
+void require_valid_regions(const SurfaceNetwork& s, const std::string& source) {
+    const auto n = static_cast<std::int64_t>(s.vertex_count());
+    for (std::size_t v = 0; v < s.vertex_count(); ++v)
+        if (!s.point(std::int32_t(v)).allFinite())
+            defect(source, "vertex " + std::to_string(v) + " has a non-finite coordinate");
+    if (s.face_count() == 0) defect(source, "the surface has no triangles");
+    for (std::size_t f = 0; f < s.face_count(); ++f)
+        for (const auto v : s.faces[f])
+            if (v < 0 || v >= n)
+                defect(source, "face " + std::to_string(f) + " names vertex " + std::to_string(v) +
+                                   ", but there are " + std::to_string(n) + " vertices");
+    // How many faces share the first face's defect: "region_in == region_out everywhere"
+    // reads differently from one stray face.
+    auto count_like = [&](auto&& is_bad) {
+        std::size_t count = 0;
+        for (std::size_t g = 0; g < s.face_count(); ++g) count += is_bad(g) ? 1 : 0;
+        return "; faces like it: " + std::to_string(count) + " of " +
+               std::to_string(s.face_count());
+    };
+    auto bad_in = [&](std::size_t g) { return s.region_in[g] <= 0; };
+    auto bad_out = [&](std::size_t g) {
+        return s.region_out[g] < 0 || s.region_out[g] == s.region_in[g];
+    };
+    for (std::size_t f = 0; f < s.face_count(); ++f) {
+        const std::string where = "face " + std::to_string(f) + " " + near(s.point(s.faces[f][0]));
+        if (bad_in(f))
+            defect(source, where + ": region_in is " + std::to_string(s.region_in[f]) +
+                               "; it must be a positive label (the region behind the face)" +
+                               count_like(bad_in));
+        if (bad_out(f))
+            defect(source, where + ": region_out is " + std::to_string(s.region_out[f]) +
+                               "; it must be 0 (outside) or another region than region_in " +
+                               std::to_string(s.region_in[f]) + " (a face separates two regions)" +
+                               count_like(bad_out));
+    }
+}
+
+std::string BoundaryDefect::text() const {
+    return std::string(is_open ? "open" : "misoriented") + " boundary of region " +
+           std::to_string(region) + " at edge (" + std::to_string(lo) + ", " + std::to_string(hi) +
+           ") with " + std::to_string(faces) + " face(s) " + near(place);
+}
+
 // Each region's boundary, seen from the region (region_out faces reversed): every edge has
 // an even number of faces, alternating in direction (as many lo->hi as hi->lo).
-void require_closed_regions(const SurfaceNetwork& s, const std::string& source) {
+std::optional<BoundaryDefect> first_boundary_defect(const SurfaceNetwork& s) {
     struct Use {
         Label region;
         std::int32_t lo, hi;
@@ -87,37 +133,22 @@ void require_closed_regions(const SurfaceNetwork& s, const std::string& source) 
              ++j)
             balance += uses[j].forward;
         const std::size_t count = j - i;
-        if (count % 2 != 0 || balance != 0) {
-            const Eigen::Vector3d mid = 0.5 * (s.point(uses[i].lo) + s.point(uses[i].hi));
-            defect(source, std::string(count % 2 != 0 ? "open" : "misoriented") +
-                               " boundary of region " + std::to_string(uses[i].region) +
-                               " at edge (" + std::to_string(uses[i].lo) + ", " +
-                               std::to_string(uses[i].hi) + ") with " + std::to_string(count) +
-                               " face(s) " + near(mid) +
-                               (count % 2 != 0 ? ": the surface must be closed"
-                                               : ": neighbouring faces point opposite ways"));
-        }
+        if (count % 2 != 0 || balance != 0)
+            return BoundaryDefect{
+                uses[i].region, uses[i].lo,     uses[i].hi,
+                count,          count % 2 != 0, 0.5 * (s.point(uses[i].lo) + s.point(uses[i].hi))};
         i = j;
     }
-    for (const Label region : region_labels(s)) {
-        const double volume = enclosed_volume(s, region);
-        if (!(volume > 0.0)) {
-            std::size_t f = 0;
-            while (s.region_in[f] != region && s.region_out[f] != region) ++f;
-            std::ostringstream v;
-            v << volume;
-            defect(source, "region " + std::to_string(region) + " encloses " + v.str() + " mm^3 " +
-                               near(s.point(s.faces[f][0])) +
-                               ": its faces point into it; they must point out of region_in");
-        }
-    }
+    return std::nullopt;
 }
 
-}  // namespace
-
 void require_meshable_surface(const SurfaceNetwork& surface, const std::string& source) {
-    require_valid_faces(surface, source);
-    require_closed_regions(surface, source);
+    require_valid_regions(surface, source);
+    require_proper_faces(surface, source);
+    if (const auto d = first_boundary_defect(surface))
+        defect(source, d->text() + (d->is_open ? ": the surface must be closed"
+                                               : ": neighbouring faces point opposite ways"));
+    require_positive_volumes(surface, source);
     if (const auto inverted = inverted_parts(surface); !inverted.empty()) {
         const InvertedPart& part = inverted.front();
         std::ostringstream w;

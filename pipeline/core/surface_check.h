@@ -2,11 +2,41 @@
 // The precondition of the tetra stage on a surface a user hands in (input.surface with
 // --from tetra): what the layered front (paper §3.1.2) needs, checked before any work.
 
+#include <cstdint>
+#include <optional>
 #include <string>
+
+#include <Eigen/Core>
 
 #include "pipeline/core/surface_network.h"
 
 namespace frontmesh::core {
+
+/// Throws InputError with one line "SOURCE: <defect> near (x, y, z) mm" for the first face
+/// (in id order) that no stage can work with, whatever stage a user's surface enters at:
+/// a vertex id out of range, a non-finite coordinate, no face at all, a region_in that is
+/// not a positive label, or a region_out that is negative or equals region_in (a face must
+/// separate two regions; the message counts the faces with the same defect). Cost O(faces).
+void require_valid_regions(const SurfaceNetwork& surface, const std::string& source);
+
+/// An edge where a region's boundary is open (an odd number of the region's faces) or
+/// misoriented (its faces, seen from the region, do not alternate in direction).
+struct BoundaryDefect {
+    Label region = 0;
+    std::int32_t lo = -1, hi = -1;                    ///< the edge's vertices, lo < hi
+    std::size_t faces = 0;                            ///< the region's faces on the edge
+    bool is_open = false;                             ///< false: misoriented
+    Eigen::Vector3d place = Eigen::Vector3d::Zero();  ///< the edge's midpoint, mm
+
+    /// "open boundary of region R at edge (a, b) with N face(s) near (x, y, z) mm".
+    std::string text() const;
+};
+
+/// The first boundary defect in (region, lo, hi) order, or none when every region's
+/// boundary is closed and consistently oriented edge by edge (its enclosed volume is not
+/// looked at). Faces of an interface count for both regions (reversed for region_out).
+/// Precondition: vertex ids in range. Cost O(F log F).
+std::optional<BoundaryDefect> first_boundary_defect(const SurfaceNetwork& surface);
 
 /// Throws InputError with one line "SOURCE: <defect>, region R, near (x, y, z) mm" for the
 /// first defect found, in this order: a vertex id out of range or a non-finite coordinate;

@@ -170,6 +170,32 @@ TEST_CASE("the diagnostics writer: one file per diagnostic, from any thread", "[
     CHECK(pipeline::DiagnosticsWriter::files_of(folder, "refine").size() == 1);
 }
 
+TEST_CASE("the diagnostics writer keeps the first files of a run and counts the rest",
+          "[pipeline]") {
+    // Issue 21: remesh retries on a 16^3 block of random labels wrote 642 files, 38 MB.
+    const fs::path folder = fs::path(fixtures::temp_dir("diagnostics_cap")) / "diagnostics";
+    std::vector<std::string> lines;
+    pipeline::DiagnosticsWriter writer(
+        folder, [&](core::LogLevel, const std::string& line) { lines.push_back(line); }, {});
+    constexpr int cap = pipeline::DiagnosticsWriter::max_files_per_run;
+    writer.start("remesh");
+    core::StageContext ctx({}, {}, writer.sink());
+    for (int i = 0; i < cap - 5; ++i) ctx.diagnose(triangle("stall"));
+    writer.finish();
+    CHECK(writer.not_written() == 0);
+    writer.start("tetra");  // the cap is per run: 5 files left for this stage
+    for (int i = 0; i < 12; ++i) ctx.diagnose(triangle("front"));
+    CHECK(writer.not_written() == 7);
+    writer.finish();
+    CHECK(pipeline::DiagnosticsWriter::files_of(folder, "remesh").size() == cap - 5);
+    CHECK(pipeline::DiagnosticsWriter::files_of(folder, "tetra").size() == 5);
+    CHECK(fs::exists(folder / "tetra-front-5.vtu"));
+    CHECK_FALSE(fs::exists(folder / "tetra-front-6.vtu"));
+    REQUIRE_FALSE(lines.empty());
+    CHECK_THAT(lines.back(), Catch::Contains("diagnostics: 7 more of tetra not written") &&
+                                 Catch::Contains("at most " + std::to_string(cap)));
+}
+
 TEST_CASE("summary.json lists the diagnostics of its stages", "[pipeline]") {
     const std::string dir = ball_run_dir("run_diagnostics");
     const auto first = testing::run_frontmesh("run recipe.yaml --quiet --until repair", dir);

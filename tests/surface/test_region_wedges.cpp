@@ -29,7 +29,11 @@ double min_region_wedge(const core::SurfaceNetwork& s) {
             edges[{std::min(a, b), std::max(a, b)}].push_back(std::int32_t(f));
         }
     double smallest = 360.0;
-    for (const auto& [e, faces] : edges) {
+    // Plain locals, not structured bindings: the lambdas below capture them, which clang
+    // 14 refuses for bindings (C++20 allows it; clang implements it from version 16).
+    for (const auto& edge : edges) {
+        const std::pair<std::int32_t, std::int32_t>& e = edge.first;
+        const std::vector<std::int32_t>& faces = edge.second;
         if (faces.size() < 3) continue;
         std::map<core::Label, std::vector<std::int32_t>> by_region;
         for (const auto f : faces) {
@@ -37,7 +41,9 @@ double min_region_wedge(const core::SurfaceNetwork& s) {
             if (s.region_out[std::size_t(f)] != 0)
                 by_region[s.region_out[std::size_t(f)]].push_back(f);
         }
-        for (const auto& [r, rf] : by_region) {
+        for (const auto& entry : by_region) {
+            const core::Label r = entry.first;
+            const std::vector<std::int32_t>& rf = entry.second;
             if (rf.size() != 2) continue;
             // Outward normals of the region's faces; the wedge from their third vertices.
             auto outward = [&](std::int32_t f) {
