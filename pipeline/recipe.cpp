@@ -539,6 +539,8 @@ Recipe parse_recipe(const std::string& text, const std::string& path,
                                              std::to_string(l) + " is not in input.labels");
     check_output_dir(recipe, origin_for("output.dir"));
     recipe.extract.labels = in.labels;
+    // The volume size cap of tetra is honoured by refine too (its edge splits).
+    recipe.refine.max_edge_length = recipe.tetra.max_edge_length;
     // An image's components are measured in voxels, by extract (issue 20).
     recipe.extract.min_component_volume_mm3 = recipe.repair.min_component_volume_mm3;
     recipe.repair.is_from_image = !in.image.empty();
@@ -601,6 +603,7 @@ std::string canonical_params(const Recipe& recipe, const std::string& section) {
         s << "stretching=" << t.stretching << ";height_smoothing=" << t.height_smoothing_iterations
           << ";max_remesh=" << t.max_remesh_per_node << ";min_angle=" << t.min_angle_deg
           << ";closing=" << t.max_closing_rounds;
+        if (t.max_edge_length > 0) s << ";max_edge=" << t.max_edge_length;  // default: as before
     } else if (section == "refine") {
         const auto& f = recipe.refine;
         s << "node_removal=" << f.node_removal << ";max_tets=" << f.node_removal_max_tets
@@ -610,6 +613,7 @@ std::string canonical_params(const Recipe& recipe, const std::string& section) {
           << ";delaunay=" << f.flip_delaunay_test << ";flip_sweeps=" << f.flip_sweeps
           << ";sliver=" << f.sliver_pass << ";sliver_deg=" << f.sliver_dihedral_deg
           << ";sliver_sweeps=" << f.sliver_sweeps;
+        if (f.max_edge_length > 0) s << ";max_edge=" << f.max_edge_length;  // default: as before
     } else {
         FM_CHECK(false && "unknown recipe section");
     }
