@@ -584,9 +584,12 @@ std::vector<RegionGroup> region_groups(const core::TetMesh& mesh, const LabelTab
 std::vector<std::int32_t> face_nodes(const core::TetMesh& mesh,
                                      const std::vector<std::int32_t>& faces) {
     std::vector<std::int32_t> nodes;
-    nodes.reserve(3 * faces.size());
-    for (std::int32_t f : faces)
+    nodes.reserve((mesh.is_quadratic() ? 6 : 3) * faces.size());
+    for (std::int32_t f : faces) {
         for (std::int32_t v : mesh.faces[static_cast<std::size_t>(f)]) nodes.push_back(v);
+        if (mesh.is_quadratic())
+            for (std::int32_t v : mesh.face_mid[static_cast<std::size_t>(f)]) nodes.push_back(v);
+    }
     std::sort(nodes.begin(), nodes.end());
     nodes.erase(std::unique(nodes.begin(), nodes.end()), nodes.end());
     return nodes;

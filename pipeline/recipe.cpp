@@ -284,6 +284,11 @@ void add_output_keys(std::vector<KeySpec>& specs) {
                  r.output.split_interfaces.pairs.emplace_back(a, b);
              }
          }});
+    specs.push_back({"output.order", "1", "", "",
+                     "element order of the exports: 1 (tet4) or 2 (tet10, curved on the surface)",
+                     [](const YAML::Node& n, Recipe& r, const Where& w) {
+                         r.output.order = as_choice(n, w, {"1", "2"}) == "2" ? 2 : 1;
+                     }});
     specs.push_back({"output.quality_report", "true", "", "",
                      "report.html with quality histograms after refine",
                      [](const YAML::Node& n, Recipe& r, const Where& w) {
@@ -537,6 +542,14 @@ Recipe parse_recipe(const std::string& text, const std::string& path,
                     FM_THROW(InputError, origin_for("output.split_interfaces") +
                                              ": output.split_interfaces: label " +
                                              std::to_string(l) + " is not in input.labels");
+    // MEDIT's .mesh holds linear tets only (io::write_mesh refuses quadratic ones too).
+    if (recipe.output.order == 2 &&
+        std::find(recipe.output.formats.begin(), recipe.output.formats.end(), "mesh") !=
+            recipe.output.formats.end())
+        FM_THROW(InputError, origin_for("output.order") +
+                                 ": output.order: 2 (quadratic tets) cannot be written as MEDIT "
+                                 ".mesh, which holds linear tets only; drop mesh from "
+                                 "output.formats or use order 1");
     check_output_dir(recipe, origin_for("output.dir"));
     recipe.extract.labels = in.labels;
     // The volume size cap of tetra is honoured by refine too (its edge splits).
