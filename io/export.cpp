@@ -297,7 +297,7 @@ core::TetMesh read_mesh(const std::string& path, LabelTable* names, MeshReadInfo
                 vtkIdType npts = 0;
                 const vtkIdType* pts = nullptr;
                 it->GetCurrentCell(npts, pts);
-                FM_CHECK(npts == 4);
+                FM_CHECK(npts == 4 || npts == 10);  // quadratic tets: their corners
                 for (int k = 0; k < 4; ++k)
                     mesh.tets[t][static_cast<std::size_t>(k)] = static_cast<std::int32_t>(pts[k]);
             }

@@ -1141,7 +1141,9 @@ core::TetMesh read_tet_mesh(const std::string& path, FieldStrings* fields) {
         const vtkIdType* pts = nullptr;
         it->GetCurrentCell(npts, pts);
         const int type = types->GetValue(cell);
-        if (type != VTK_TETRA || npts != 4)
+        // Quadratic tets (output.order 2) are read as their corner tets, as the Gmsh and
+        // Abaqus readers read tet10 / C3D10: their mid nodes are left unused.
+        if (!(type == VTK_TETRA && npts == 4) && !(type == VTK_QUADRATIC_TETRA && npts == 10))
             FM_THROW(InputError, quoted(path) + ": cell " + std::to_string(cell) + " is " +
                                      cell_type_name(type) + "; only tetrahedra are supported");
         std::array<std::int32_t, 4> t{};
