@@ -32,7 +32,8 @@ void write_febio(const core::TetMesh& mesh, const std::string& path, const Label
     const auto regions = region_groups(mesh, names);
     const auto surfaces = surface_groups(mesh, names);
     // Quadratic tets: tet10 (corners, then the mid nodes of edges 1-2, 2-3, 3-1, 1-4, 2-4,
-    // 3-4: VTK's order, tet_nodes) and tri6 facets (corners, then edges 1-2, 2-3, 3-1).
+    // 3-4: VTK's order, tet_nodes) and tri6 facets (corners, then edges 1-2, 2-3, 3-1), as
+    // FEBio's shape functions number them (FECore FETet10 and FETri6: H[4] = 4 r u, ...).
     const char* element = mesh.is_quadratic() ? "tet10" : "tet4";
     const char* facet = mesh.is_quadratic() ? "tri6" : "tri3";
     // "1,2,3" (1-based) on one line: FEBio 4 reads set members as a comma-separated list.
