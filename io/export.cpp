@@ -298,7 +298,7 @@ core::TetMesh read_mesh(const std::string& path, LabelTable* names, MeshReadInfo
                 vtkIdType npts = 0;
                 const vtkIdType* pts = nullptr;
                 it->GetCurrentCell(npts, pts);
-                FM_CHECK(npts == 4);
+                FM_CHECK(npts == 4 || npts == 10);  // quadratic tets: their corners
                 for (int k = 0; k < 4; ++k)
                     mesh.tets[t][static_cast<std::size_t>(k)] = static_cast<std::int32_t>(pts[k]);
             }
@@ -586,9 +586,12 @@ std::vector<RegionGroup> region_groups(const core::TetMesh& mesh, const LabelTab
 std::vector<std::int32_t> face_nodes(const core::TetMesh& mesh,
                                      const std::vector<std::int32_t>& faces) {
     std::vector<std::int32_t> nodes;
-    nodes.reserve(3 * faces.size());
-    for (std::int32_t f : faces)
+    nodes.reserve((mesh.is_quadratic() ? 6 : 3) * faces.size());
+    for (std::int32_t f : faces) {
         for (std::int32_t v : mesh.faces[static_cast<std::size_t>(f)]) nodes.push_back(v);
+        if (mesh.is_quadratic())
+            for (std::int32_t v : mesh.face_mid[static_cast<std::size_t>(f)]) nodes.push_back(v);
+    }
     std::sort(nodes.begin(), nodes.end());
     nodes.erase(std::unique(nodes.begin(), nodes.end()), nodes.end());
     return nodes;

@@ -29,6 +29,11 @@
 // numbers in the files are 1-based in TetMesh order; tets keep VTK node order (positive
 // volume), which is also Gmsh's, MEDIT's, Abaqus C3D4's and FEBio tet4's. Abaqus numbers
 // take at most 20 characters (CalculiX's and Abaqus's field width), lines at most 132.
+// A quadratic mesh (mesh.tet_mid, output.order 2: volume::elevate_to_quadratic) is written
+// with 10-node tets and 6-node surface triangles: VTU cell type 24, Gmsh types 11 and 9
+// (Gmsh's tet10 lists the mid nodes of edges 3-4 and 2-4 in that order, VTK the other
+// way), Abaqus C3D10 (element-face surfaces as for C3D4; node sets with the mid nodes),
+// FEBio tet10 with tri6 facets; MEDIT refuses it (InputError).
 
 #include <cstdint>
 #include <string>

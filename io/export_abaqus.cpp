@@ -1,4 +1,5 @@
-// Abaqus .inp (C3D4): writer and a reader for flat (part-less) input files.
+// Abaqus .inp (C3D4, or C3D10 for quadratic tets): writer and a reader for flat (part-less)
+// input files.
 // Regions are element sets (*ELEMENT, ELSET=name), boundary and interface surfaces are a
 // node set plus an element-based surface (faces S1..S4 of the tets of region_in).
 
@@ -16,14 +17,15 @@ namespace {
 
 constexpr std::size_t kMaxAbaqusName = 80;
 // Abaqus data lines hold at most 16 entries, CalculiX reads lines of at most 132 characters:
-// 10 ids of up to 10 digits with their ", " take 118.
+// 10 ids of up to 10 digits with their ", " take 118; a C3D10 line (element id and 10
+// nodes) 130.
 constexpr int kIdsPerLine = 10;
 // Abaqus and CalculiX read at most 20 characters per number field.
 constexpr int kMaxNumberChars = 20;
 
 /// Abaqus face number (1..4) of our local face k (the face opposite node k):
 /// S1 = nodes 1-2-3 (opposite 4), S2 = 1-4-2 (opposite 3), S3 = 2-4-3 (opposite 1),
-/// S4 = 3-4-1 (opposite 2).
+/// S4 = 3-4-1 (opposite 2). The same face numbers for C3D10 (faces by their corners).
 constexpr int kAbaqusFace[4] = {3, 4, 2, 1};
 
 /// `name + suffix` when it fits Abaqus's 80 characters, else the same with the labels as
@@ -130,11 +132,14 @@ void write_abaqus(const core::TetMesh& mesh, const std::string& path, const Labe
     const auto regions = region_groups(mesh, names);
     const auto surfaces = surface_groups(mesh, names);
     const auto sides = face_tets(mesh);
+    // C3D10: corners, then the mid nodes of edges 1-2, 2-3, 3-1, 1-4, 2-4, 3-4 (the Abaqus
+    // manual's node ordering of the 10-node tetrahedron), which is VTK's (tet_nodes).
+    const char* type = mesh.is_quadratic() ? "C3D10" : "C3D4";
     write_atomically(path, [&](const std::string& temp) {
         TextOut out(temp);
         // No *HEADING: a deck may hold only one, and users *INCLUDE this file in their own.
         out << "** frontmesh tetrahedral mesh: " << mesh.node_count() << " nodes, "
-            << mesh.tet_count() << " C3D4 elements, " << regions.size() << " regions, "
+            << mesh.tet_count() << ' ' << type << " elements, " << regions.size() << " regions, "
             << surfaces.size() << " surfaces\n";
         out << "** Tag numbers, the same in every format and for every subject: region = its\n"
                "** label; surface between labels a < b (0 = outside) = a * "
@@ -154,11 +159,14 @@ void write_abaqus(const core::TetMesh& mesh, const std::string& path, const Labe
             out.real_within(mesh.xyz[3 * v + 2], kMaxNumberChars) << '\n';
         }
         for (const auto& r : regions) {
-            out << "*ELEMENT, TYPE=C3D4, ELSET=" << r.name << '\n';
+            out << "*ELEMENT, TYPE=" << type << ", ELSET=" << r.name << '\n';
             for (std::int32_t t : r.tets) {
-                const auto& q = mesh.tets[static_cast<std::size_t>(t)];
-                out << static_cast<std::int64_t>(t) + 1 << ", " << q[0] + 1 << ", " << q[1] + 1
-                    << ", " << q[2] + 1 << ", " << q[3] + 1 << '\n';
+                std::array<std::int32_t, 10> nodes{};
+                const int count = tet_nodes(mesh, static_cast<std::size_t>(t), nodes);
+                out << static_cast<std::int64_t>(t) + 1;
+                for (int k = 0; k < count; ++k)
+                    out << ", " << nodes[static_cast<std::size_t>(k)] + 1;
+                out << '\n';
             }
         }
         out << "*ELSET, ELSET=ALLELEMENTS, GENERATE\n1, " << mesh.tet_count() << ", 1\n";

@@ -103,9 +103,34 @@ std::vector<RegionGroup> region_groups(const core::TetMesh& mesh, const LabelTab
 void check_numeric_tags(const std::vector<RegionGroup>& regions,
                         const std::vector<SurfaceGroup>& groups, const std::string& what);
 
-/// Sorted, unique nodes of some faces.
+/// Sorted, unique nodes of some faces (with their mid nodes for quadratic tets).
 std::vector<std::int32_t> face_nodes(const core::TetMesh& mesh,
                                      const std::vector<std::int32_t>& faces);
+
+/// The nodes of tet t: its 4 corners, then (quadratic tets) its 6 mid nodes, in VTK order
+/// (core::kTetEdge; Abaqus C3D10 and FEBio tet10 use it too). Returns the count (4 or 10).
+inline int tet_nodes(const core::TetMesh& mesh, std::size_t t, std::array<std::int32_t, 10>& v) {
+    for (int k = 0; k < 4; ++k) v[static_cast<std::size_t>(k)] = mesh.tets[t][k];
+    if (!mesh.is_quadratic()) return 4;
+    for (int k = 0; k < 6; ++k) v[static_cast<std::size_t>(4 + k)] = mesh.tet_mid[t][k];
+    return 10;
+}
+/// The nodes of face f: its 3 corners, then (quadratic tets) its 3 mid nodes (edges 01, 12,
+/// 20: VTK, Gmsh and FEBio tri6 order). `flip` reverses the orientation (corners 0, 2, 1;
+/// mid nodes of edges 02, 21, 10). Returns the count (3 or 6).
+inline int face_nodes_of(const core::TetMesh& mesh, std::size_t f, bool flip,
+                         std::array<std::int32_t, 6>& v) {
+    const auto& c = mesh.faces[f];
+    v[0] = c[0];
+    v[1] = flip ? c[2] : c[1];
+    v[2] = flip ? c[1] : c[2];
+    if (!mesh.is_quadratic()) return 3;
+    const auto& m = mesh.face_mid[f];
+    v[3] = flip ? m[2] : m[0];
+    v[4] = m[1];
+    v[5] = flip ? m[0] : m[2];
+    return 6;
+}
 
 /// For each face of mesh.faces, the tet of region_in with that face as an outward face and
 /// the local face index k (face opposite node k, nodes {1,2,3},{0,3,2},{0,1,3},{0,2,1}),

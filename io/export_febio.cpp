@@ -31,6 +31,11 @@ constexpr int kTimeSteps = 10;                // steps of the one static step, t
 void write_febio(const core::TetMesh& mesh, const std::string& path, const LabelTable& names) {
     const auto regions = region_groups(mesh, names);
     const auto surfaces = surface_groups(mesh, names);
+    // Quadratic tets: tet10 (corners, then the mid nodes of edges 1-2, 2-3, 3-1, 1-4, 2-4,
+    // 3-4: VTK's order, tet_nodes) and tri6 facets (corners, then edges 1-2, 2-3, 3-1), as
+    // FEBio's shape functions number them (FECore FETet10 and FETri6: H[4] = 4 r u, ...).
+    const char* element = mesh.is_quadratic() ? "tet10" : "tet4";
+    const char* facet = mesh.is_quadratic() ? "tri6" : "tri3";
     // "1,2,3" (1-based) on one line: FEBio 4 reads set members as a comma-separated list.
     auto write_ids = [](TextOut& out, const std::vector<std::int32_t>& ids) {
         for (std::size_t i = 0; i < ids.size(); ++i) out << (i ? "," : "") << ids[i] + 1;
@@ -41,19 +46,22 @@ void write_febio(const core::TetMesh& mesh, const std::string& path, const Label
         out << "\t\t<Surface name=\"" << name << "\">\n";
         std::size_t k = 0;
         for (std::int32_t f : faces) {
-            auto tri = mesh.faces[static_cast<std::size_t>(f)];
-            if (from != 0 && mesh.region_in[static_cast<std::size_t>(f)] != from)
-                std::swap(tri[1], tri[2]);
-            out << "\t\t\t<tri3 id=\"" << ++k << "\">" << tri[0] + 1 << ',' << tri[1] + 1 << ','
-                << tri[2] + 1 << "</tri3>\n";
+            std::array<std::int32_t, 6> nodes{};
+            const int count = face_nodes_of(
+                mesh, static_cast<std::size_t>(f),
+                from != 0 && mesh.region_in[static_cast<std::size_t>(f)] != from, nodes);
+            out << "\t\t\t<" << facet << " id=\"" << ++k << "\">";
+            for (int i = 0; i < count; ++i)
+                out << (i ? "," : "") << nodes[static_cast<std::size_t>(i)] + 1;
+            out << "</" << facet << ">\n";
         }
         out << "\t\t</Surface>\n";
     };
     write_atomically(path, [&](const std::string& temp) {
         TextOut out(temp);
         out << "<?xml version=\"1.0\" encoding=\"ISO-8859-1\"?>\n<febio_spec version=\"4.0\">\n";
-        out << "\t<!-- frontmesh: " << mesh.node_count() << " nodes, " << mesh.tet_count()
-            << " tet4 elements in " << regions.size() << " parts (one per region), "
+        out << "\t<!-- frontmesh: " << mesh.node_count() << " nodes, " << mesh.tet_count() << ' '
+            << element << " elements in " << regions.size() << " parts (one per region), "
             << surfaces.size()
             << " surfaces (boundary_R; interface_X_Y = faces of X bordering Y, normals out\n"
                "\t     of X, for both sides, paired in a SurfacePair for tie or contact;\n"
@@ -99,11 +107,14 @@ void write_febio(const core::TetMesh& mesh, const std::string& path, const Label
                 << mesh.xyz[3 * v + 1] << ',' << mesh.xyz[3 * v + 2] << "</node>\n";
         out << "\t\t</Nodes>\n";
         for (const auto& r : regions) {
-            out << "\t\t<Elements type=\"tet4\" name=\"" << r.name << "\">\n";
+            out << "\t\t<Elements type=\"" << element << "\" name=\"" << r.name << "\">\n";
             for (std::int32_t t : r.tets) {
-                const auto& q = mesh.tets[static_cast<std::size_t>(t)];
-                out << "\t\t\t<elem id=\"" << static_cast<std::int64_t>(t) + 1 << "\">" << q[0] + 1
-                    << ',' << q[1] + 1 << ',' << q[2] + 1 << ',' << q[3] + 1 << "</elem>\n";
+                std::array<std::int32_t, 10> nodes{};
+                const int count = tet_nodes(mesh, static_cast<std::size_t>(t), nodes);
+                out << "\t\t\t<elem id=\"" << static_cast<std::int64_t>(t) + 1 << "\">";
+                for (int i = 0; i < count; ++i)
+                    out << (i ? "," : "") << nodes[static_cast<std::size_t>(i)] + 1;
+                out << "</elem>\n";
             }
             out << "\t\t</Elements>\n";
         }

@@ -16,6 +16,23 @@ namespace {
 
 constexpr int kGmshTriangle = 2;
 constexpr int kGmshTet = 4;
+constexpr int kGmshTriangle6 = 9;
+constexpr int kGmshTet10 = 11;
+
+/// Gmsh's node order of a tet10 from VTK's (export_detail tet_nodes): the mid nodes of
+/// edges 03, 23, 13 come last in Gmsh (its manual, "Node ordering": node 8 on edge 2-3,
+/// node 9 on edge 1-3), so VTK's nodes 8 and 9 swap. Triangles of 6 nodes agree.
+constexpr int kGmshTet10Order[10] = {0, 1, 2, 3, 4, 5, 6, 7, 9, 8};
+
+/// The element type and the nodes of tet t in Gmsh's order; returns the count.
+int gmsh_tet(const core::TetMesh& mesh, std::size_t t, std::array<std::int32_t, 10>& v) {
+    std::array<std::int32_t, 10> vtk{};
+    const int n = tet_nodes(mesh, t, vtk);
+    for (int k = 0; k < n; ++k)
+        v[static_cast<std::size_t>(k)] =
+            vtk[static_cast<std::size_t>(n == 10 ? kGmshTet10Order[k] : k)];
+    return n;
+}
 
 /// Nodes per element of the Gmsh element types a reader may meet (0 = unknown).
 int gmsh_nodes_per_element(long long type) {
@@ -125,21 +142,26 @@ private:
     bool first_ = true;
 };
 
-/// Bounding box of the nodes of some elements, as six reals.
-template <class Elements>
-void write_bbox(MshOut& out, const core::TetMesh& mesh, const Elements& elements,
+/// Bounding box of the nodes of some elements (their mid nodes too), as six reals.
+template <class Elements, class Mids>
+void write_bbox(MshOut& out, const core::TetMesh& mesh, const Elements& elements, const Mids& mids,
                 const std::vector<std::int32_t>& ids) {
     double lo[3], hi[3];
     for (int k = 0; k < 3; ++k) {
         lo[k] = std::numeric_limits<double>::max();
         hi[k] = std::numeric_limits<double>::lowest();
     }
-    for (std::int32_t e : ids)
-        for (std::int32_t v : elements[static_cast<std::size_t>(e)])
-            for (int k = 0; k < 3; ++k) {
-                lo[k] = std::min(lo[k], mesh.xyz[3 * static_cast<std::size_t>(v) + k]);
-                hi[k] = std::max(hi[k], mesh.xyz[3 * static_cast<std::size_t>(v) + k]);
-            }
+    auto extend = [&](std::int32_t v) {
+        for (int k = 0; k < 3; ++k) {
+            lo[k] = std::min(lo[k], mesh.xyz[3 * static_cast<std::size_t>(v) + k]);
+            hi[k] = std::max(hi[k], mesh.xyz[3 * static_cast<std::size_t>(v) + k]);
+        }
+    };
+    for (std::int32_t e : ids) {
+        for (std::int32_t v : elements[static_cast<std::size_t>(e)]) extend(v);
+        if (!mids.empty())
+            for (std::int32_t v : mids[static_cast<std::size_t>(e)]) extend(v);
+    }
     for (double x : lo) out.real(x);
     for (double x : hi) out.real(x);
 }
@@ -188,16 +210,26 @@ void write_msh41(const core::TetMesh& mesh, const std::string& path, const Label
     const std::size_t n = mesh.node_count();
     constexpr std::size_t kNone = std::numeric_limits<std::size_t>::max();
     std::vector<std::size_t> node_entity(n, kNone);
+    // Mid nodes of quadratic tets go with the face or tet they are on, as corners do.
     for (std::size_t i = 0; i < entities.size(); ++i)
-        for (std::int32_t f : entities[i].faces)
-            for (std::int32_t v : mesh.faces[static_cast<std::size_t>(f)])
-                if (node_entity[static_cast<std::size_t>(v)] == kNone)
-                    node_entity[static_cast<std::size_t>(v)] = i;
+        for (std::int32_t f : entities[i].faces) {
+            std::array<std::int32_t, 6> nodes{};
+            const int count = face_nodes_of(mesh, static_cast<std::size_t>(f), false, nodes);
+            for (int k = 0; k < count; ++k)
+                if (node_entity[static_cast<std::size_t>(nodes[static_cast<std::size_t>(k)])] ==
+                    kNone)
+                    node_entity[static_cast<std::size_t>(nodes[static_cast<std::size_t>(k)])] = i;
+        }
     for (std::size_t j = 0; j < regions.size(); ++j)
-        for (std::int32_t t : regions[j].tets)
-            for (std::int32_t v : mesh.tets[static_cast<std::size_t>(t)])
-                if (node_entity[static_cast<std::size_t>(v)] == kNone)
-                    node_entity[static_cast<std::size_t>(v)] = entities.size() + j;
+        for (std::int32_t t : regions[j].tets) {
+            std::array<std::int32_t, 10> nodes{};
+            const int count = tet_nodes(mesh, static_cast<std::size_t>(t), nodes);
+            for (int k = 0; k < count; ++k)
+                if (node_entity[static_cast<std::size_t>(nodes[static_cast<std::size_t>(k)])] ==
+                    kNone)
+                    node_entity[static_cast<std::size_t>(nodes[static_cast<std::size_t>(k)])] =
+                        entities.size() + j;
+        }
     // The nodes of each entity, increasing (counting sort; a node in no element goes with
     // the first region).
     std::vector<std::vector<std::int32_t>> entity_nodes(entities.size() + regions.size());
@@ -227,12 +259,12 @@ void write_msh41(const core::TetMesh& mesh, const std::string& path, const Label
         for (std::size_t i = 0; i < entities.size(); ++i) {
             const auto& e = entities[i];
             out.integer(static_cast<std::int64_t>(i) + 1);
-            write_bbox(out, mesh, mesh.faces, e.faces);
+            write_bbox(out, mesh, mesh.faces, mesh.face_mid, e.faces);
             out.size(1).integer(e.group->tag).size(0).end_record();
         }
         for (const auto& r : regions) {
             out.integer(r.label);
-            write_bbox(out, mesh, mesh.tets, r.tets);
+            write_bbox(out, mesh, mesh.tets, mesh.tet_mid, r.tets);
             std::vector<std::int64_t> bounding;
             for (std::size_t i = 0; i < entities.size(); ++i) {
                 const auto& e = entities[i];
@@ -269,25 +301,31 @@ void write_msh41(const core::TetMesh& mesh, const std::string& path, const Label
         out.end_section("$EndNodes");
         // Elements: tet t has tag t + 1, face f has tag tets + f + 1.
         const std::size_t nt = mesh.tet_count(), nf = mesh.face_count();
+        const int tet_type = mesh.is_quadratic() ? kGmshTet10 : kGmshTet;
+        const int triangle_type = mesh.is_quadratic() ? kGmshTriangle6 : kGmshTriangle;
         text << "$Elements\n";
         out.size(entities.size() + regions.size()).size(nt + nf).size(1).size(nt + nf);
         out.end_record();
         for (std::size_t i = 0; i < entities.size(); ++i) {
-            out.integer(2).integer(static_cast<std::int64_t>(i) + 1).integer(kGmshTriangle);
+            out.integer(2).integer(static_cast<std::int64_t>(i) + 1).integer(triangle_type);
             out.size(entities[i].faces.size()).end_record();
             for (std::int32_t f : entities[i].faces) {
                 out.size(nt + static_cast<std::size_t>(f) + 1);
-                for (std::int32_t v : mesh.faces[static_cast<std::size_t>(f)])
-                    out.size(static_cast<std::uint64_t>(v) + 1);
+                std::array<std::int32_t, 6> nodes{};
+                const int count = face_nodes_of(mesh, static_cast<std::size_t>(f), false, nodes);
+                for (int k = 0; k < count; ++k)
+                    out.size(static_cast<std::uint64_t>(nodes[static_cast<std::size_t>(k)]) + 1);
                 out.end_record();
             }
         }
         for (const auto& r : regions) {
-            out.integer(3).integer(r.label).integer(kGmshTet).size(r.tets.size()).end_record();
+            out.integer(3).integer(r.label).integer(tet_type).size(r.tets.size()).end_record();
             for (std::int32_t t : r.tets) {
                 out.size(static_cast<std::size_t>(t) + 1);
-                for (std::int32_t v : mesh.tets[static_cast<std::size_t>(t)])
-                    out.size(static_cast<std::uint64_t>(v) + 1);
+                std::array<std::int32_t, 10> nodes{};
+                const int count = gmsh_tet(mesh, static_cast<std::size_t>(t), nodes);
+                for (int k = 0; k < count; ++k)
+                    out.size(static_cast<std::uint64_t>(nodes[static_cast<std::size_t>(k)]) + 1);
                 out.end_record();
             }
         }
@@ -319,16 +357,22 @@ void write_msh22(const core::TetMesh& mesh, const std::string& path, const Label
         // elm-number elm-type 2 physical elementary nodes...; tets first (tag t + 1).
         const std::size_t nt = mesh.tet_count(), nf = mesh.face_count();
         out << "$Elements\n" << nt + nf << '\n';
+        const int tet_type = mesh.is_quadratic() ? kGmshTet10 : kGmshTet;
+        const int triangle_type = mesh.is_quadratic() ? kGmshTriangle6 : kGmshTriangle;
         for (std::size_t t = 0; t < nt; ++t) {
-            const auto& tet = mesh.tets[t];
             const core::Label r = mesh.region[t];
-            out << t + 1 << ' ' << kGmshTet << " 2 " << r << ' ' << r << ' ' << tet[0] + 1 << ' '
-                << tet[1] + 1 << ' ' << tet[2] + 1 << ' ' << tet[3] + 1 << '\n';
+            out << t + 1 << ' ' << tet_type << " 2 " << r << ' ' << r;
+            std::array<std::int32_t, 10> nodes{};
+            const int count = gmsh_tet(mesh, t, nodes);
+            for (int k = 0; k < count; ++k) out << ' ' << nodes[static_cast<std::size_t>(k)] + 1;
+            out << '\n';
         }
         for (std::size_t f = 0; f < nf; ++f) {
-            const auto& tri = mesh.faces[f];
-            out << nt + f + 1 << ' ' << kGmshTriangle << " 2 " << face_tag[f] << ' ' << face_tag[f]
-                << ' ' << tri[0] + 1 << ' ' << tri[1] + 1 << ' ' << tri[2] + 1 << '\n';
+            out << nt + f + 1 << ' ' << triangle_type << " 2 " << face_tag[f] << ' ' << face_tag[f];
+            std::array<std::int32_t, 6> nodes{};
+            const int count = face_nodes_of(mesh, f, false, nodes);
+            for (int k = 0; k < count; ++k) out << ' ' << nodes[static_cast<std::size_t>(k)] + 1;
+            out << '\n';
         }
         out << "$EndElements\n";
         MshOut data(out, false);

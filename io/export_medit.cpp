@@ -11,6 +11,11 @@
 namespace frontmesh::io::detail {
 
 void write_medit(const core::TetMesh& mesh, const std::string& path, const LabelTable& names) {
+    // MEDIT's Tetrahedra are linear; its P2 keywords are not read by the tools .mesh is for.
+    if (mesh.is_quadratic())
+        FM_THROW(InputError, path +
+                                 ": the MEDIT .mesh format holds no quadratic tets "
+                                 "(output.order 2); drop mesh from output.formats");
     const auto regions = region_groups(mesh, names);
     const auto surfaces = surface_groups(mesh, names);
     check_numeric_tags(regions, surfaces, path);

@@ -996,7 +996,20 @@ vtkSmartPointer<vtkUnstructuredGrid> tet_grid(const core::TetMesh& mesh, const F
     FM_CHECK(mesh.level.empty() || mesh.level.size() == nn);
     FM_CHECK(figures == nullptr || figures->size() == nt);
 
-    const vtkSmartPointer<vtkUnstructuredGrid> grid = new_grid(mesh.xyz, mesh.tets, VTK_TETRA);
+    // Quadratic tets (output.order 2): VTK_QUADRATIC_TETRA, corners then the mid nodes of
+    // edges 01, 12, 20, 03, 13, 23 (TetMesh::tet_mid's order).
+    vtkSmartPointer<vtkUnstructuredGrid> grid;
+    if (mesh.is_quadratic()) {
+        FM_CHECK(mesh.tet_mid.size() == nt);
+        std::vector<std::array<std::int32_t, 10>> cells(nt);
+        for (std::size_t t = 0; t < nt; ++t) {
+            std::copy(mesh.tets[t].begin(), mesh.tets[t].end(), cells[t].begin());
+            std::copy(mesh.tet_mid[t].begin(), mesh.tet_mid[t].end(), cells[t].begin() + 4);
+        }
+        grid = new_grid(mesh.xyz, cells, VTK_QUADRATIC_TETRA);
+    } else {
+        grid = new_grid(mesh.xyz, mesh.tets, VTK_TETRA);
+    }
 
     vtkNew<vtkIntArray> region;
     region->SetName("region");
@@ -1131,7 +1144,9 @@ core::TetMesh read_tet_mesh(const std::string& path, FieldStrings* fields) {
         const vtkIdType* pts = nullptr;
         it->GetCurrentCell(npts, pts);
         const int type = types->GetValue(cell);
-        if (type != VTK_TETRA || npts != 4)
+        // Quadratic tets (output.order 2) are read as their corner tets, as the Gmsh and
+        // Abaqus readers read tet10 / C3D10: their mid nodes are left unused.
+        if (!(type == VTK_TETRA && npts == 4) && !(type == VTK_QUADRATIC_TETRA && npts == 10))
             FM_THROW(InputError, quoted(path) + ": cell " + std::to_string(cell) + " is " +
                                      cell_type_name(type) + "; only tetrahedra are supported");
         std::array<std::int32_t, 4> t{};

@@ -44,7 +44,9 @@ using LabelColours = std::map<core::Label, std::array<std::uint8_t, 3>>;
 /// Writes `mesh` as a VTK XML unstructured grid of tetrahedra (binary, zlib), atomically.
 /// Cell arrays: `region` (int32), `skewness` (Eq. 1) and `min_dihedral` (degrees) (float32,
 /// from `figures` when given: core::tet_figures of every tet in order, else computed here);
-/// point array `level` (int32) when the mesh has one. The boundary and interface triangles
+/// point array `level` (int32) when the mesh has one. A quadratic mesh (mesh.tet_mid) is
+/// written as VTK_QUADRATIC_TETRA cells (corners, then the mid nodes of edges 01, 12, 20,
+/// 03, 13, 23); figures and colours are of its corner tets. The boundary and interface triangles
 /// travel in field data (`boundary_faces` int32 x3, `boundary_region_in`,
 /// `boundary_region_out`, `surface_vertices`), so the file holds only tets for ParaView and
 /// solvers while read_tet_mesh() restores the whole TetMesh. Field data: one string array
@@ -71,8 +73,10 @@ void write_surface_vtp(const core::TetMesh& mesh, const std::vector<std::int64_t
 /// Reads a tetrahedral mesh from .vtu (as written by write_tet_mesh_vtu, or any VTU of tets:
 /// region from a cell array `region` when present, else 1; without boundary field data the
 /// boundary faces are derived: faces of one tet, or between tets of different regions).
-/// Tets of negative volume are reordered. Throws InputError naming the file on bad input,
-/// points out of range included (core::require_coordinates_in_range).
+/// Tets of negative volume are reordered. Quadratic tets (VTK_QUADRATIC_TETRA, output.order
+/// 2) are read as their corner tets, the mid nodes left unused (as read_mesh reads Gmsh tet10
+/// and Abaqus C3D10). Throws InputError naming the file on bad input, points out of range
+/// included (core::require_coordinates_in_range).
 core::TetMesh read_tet_mesh(const std::string& path, FieldStrings* fields = nullptr);
 
 /// Writes geometry a stage handed to the diagnostics sink as a VTK XML unstructured grid,

@@ -284,6 +284,11 @@ void add_output_keys(std::vector<KeySpec>& specs) {
                  r.output.split_interfaces.pairs.emplace_back(a, b);
              }
          }});
+    specs.push_back({"output.order", "1", "", "",
+                     "element order of the exports: 1 (tet4) or 2 (tet10, curved on the surface)",
+                     [](const YAML::Node& n, Recipe& r, const Where& w) {
+                         r.output.order = as_choice(n, w, {"1", "2"}) == "2" ? 2 : 1;
+                     }});
     specs.push_back({"output.quality_report", "true", "", "",
                      "report.html with quality histograms after refine",
                      [](const YAML::Node& n, Recipe& r, const Where& w) {
@@ -547,8 +552,18 @@ Recipe parse_recipe(const std::string& text, const std::string& path,
                     FM_THROW(InputError, origin_for("output.split_interfaces") +
                                              ": output.split_interfaces: label " +
                                              std::to_string(l) + " is not in input.labels");
+    // MEDIT's .mesh holds linear tets only (io::write_mesh refuses quadratic ones too).
+    if (recipe.output.order == 2 &&
+        std::find(recipe.output.formats.begin(), recipe.output.formats.end(), "mesh") !=
+            recipe.output.formats.end())
+        FM_THROW(InputError, origin_for("output.order") +
+                                 ": output.order: 2 (quadratic tets) cannot be written as MEDIT "
+                                 ".mesh, which holds linear tets only; drop mesh from "
+                                 "output.formats or use order 1");
     check_output_dir(recipe, origin_for("output.dir"));
     recipe.extract.labels = in.labels;
+    // The volume size cap of tetra is honoured by refine too (its edge splits).
+    recipe.refine.max_edge_length = recipe.tetra.max_edge_length;
     // An image's components are measured in voxels, by extract (issue 20).
     recipe.extract.min_component_volume_mm3 = recipe.repair.min_component_volume_mm3;
     recipe.repair.is_from_image = !in.image.empty();
@@ -612,6 +627,7 @@ std::string canonical_params(const Recipe& recipe, const std::string& section) {
         s << "stretching=" << t.stretching << ";height_smoothing=" << t.height_smoothing_iterations
           << ";max_remesh=" << t.max_remesh_per_node << ";min_angle=" << t.min_angle_deg
           << ";closing=" << t.max_closing_rounds;
+        if (t.max_edge_length > 0) s << ";max_edge=" << t.max_edge_length;  // default: as before
     } else if (section == "refine") {
         const auto& f = recipe.refine;
         s << "node_removal=" << f.node_removal << ";max_tets=" << f.node_removal_max_tets
@@ -621,6 +637,7 @@ std::string canonical_params(const Recipe& recipe, const std::string& section) {
           << ";delaunay=" << f.flip_delaunay_test << ";flip_sweeps=" << f.flip_sweeps
           << ";sliver=" << f.sliver_pass << ";sliver_deg=" << f.sliver_dihedral_deg
           << ";sliver_sweeps=" << f.sliver_sweeps;
+        if (f.max_edge_length > 0) s << ";max_edge=" << f.max_edge_length;  // default: as before
     } else {
         FM_CHECK(false && "unknown recipe section");
     }

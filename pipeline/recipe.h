@@ -34,9 +34,10 @@ struct OutputSection {
     core::Frame frame = core::Frame::Lps;
     std::vector<std::string> formats{"vtu"};  ///< exports of a tet mesh: mesh.EXT
     bool binary = false;                      ///< binary mesh.msh (VTU is always binary)
-    io::SplitInterfaces split_interfaces;     ///< interfaces whose nodes are doubled
-    bool quality_report = true;               ///< report.html + SVG histograms after refine
-    bool allow_input_folder = false;          ///< dir may be (or contain) the input's folder
+    int order = 1;  ///< 1: linear tets; 2: quadratic (volume::elevate_to_quadratic)
+    io::SplitInterfaces split_interfaces;  ///< interfaces whose nodes are doubled
+    bool quality_report = true;            ///< report.html + SVG histograms after refine
+    bool allow_input_folder = false;       ///< dir may be (or contain) the input's folder
 };
 
 /// Limits on the work a run may take on (issue 21): estimated before the stages that could

@@ -39,6 +39,7 @@
 #include "surface/remesh.h"
 #include "surface/repair.h"
 #include "volume/mesh_check.h"
+#include "volume/quadratic.h"
 #include "volume/refine.h"
 #include "volume/tetra.h"
 
@@ -411,6 +412,7 @@ private:
                              const Quality& quality, std::chrono::system_clock::time_point started);
     std::string write_results();
     std::string results_key() const;
+    core::TetMesh elevate(const core::TetMesh& mesh);
     void write_exports(const fs::path& result, const fs::path& last_checkpoint,
                        const std::vector<fs::path>& stale, bool ran_any);
     ReportContext report_context() const;
@@ -915,6 +917,7 @@ std::string Run::results_key() const {
     h.add(hashes_[last_]);
     h.add(recipe_.output.binary ? "binary" : "text");
     h.add(io::split_interfaces_text(recipe_.output.split_interfaces));
+    if (recipe_.output.order != 1) h.add("order " + std::to_string(recipe_.output.order));
     for (const auto& [label, name] : names_.names()) {
         h.add(std::to_string(label));
         h.add(name);
@@ -953,8 +956,13 @@ void Run::write_exports(const fs::path& result, const fs::path& last_checkpoint,
              std::to_string(split_copy->node_count() - mesh.node_count()) + " node copies");
     }
     const core::TetMesh& split_mesh = split_copy ? *split_copy : mesh;
+    // Quadratic tets (output.order 2) in the exports, after the split so that the copies of
+    // a split interface get their own mid nodes; mesh_surface.vtp stays linear.
+    std::optional<core::TetMesh> quadratic;
+    if (recipe_.output.order == 2 && !exports.empty()) quadratic = elevate(split_mesh);
     for (const auto& [file, format] : exports) {
-        io::write_mesh(split_mesh, file.string(), format, names_, fields, {recipe_.output.binary});
+        io::write_mesh(quadratic ? *quadratic : split_mesh, file.string(), format, names_, fields,
+                       {recipe_.output.binary});
         committed(file);
         info("wrote " + file.string());
     }
@@ -974,6 +982,29 @@ void Run::write_exports(const fs::path& result, const fs::path& last_checkpoint,
         committed(out_.dir / "report.html");
         info("wrote " + (out_.dir / "report.html").string());
     }
+}
+
+// The quadratic tets of `mesh` (volume::elevate_to_quadratic), mid nodes of surface edges on
+// the background remesh projected onto: the repair checkpoint of this chain of stages. When
+// remesh is not part of it (a surface meshed as it is), the mid nodes stay straight.
+core::TetMesh Run::elevate(const core::TetMesh& mesh) {
+    std::optional<core::SurfaceNetwork> background;
+    for (int i = entry_; i <= last_; ++i)
+        if (stages_[i].name == "remesh" && i > 0 && fs::exists(out_.checkpoint(stages_[i - 1])))
+            background = io::read_surface(out_.checkpoint(stages_[i - 1]).string());
+    volume::QuadraticStats stats;
+    core::TetMesh out =
+        volume::elevate_to_quadratic(mesh, background ? &*background : nullptr, &stats);
+    char buf[300];
+    std::snprintf(buf, sizeof buf,
+                  "quadratic tets: %zu mid nodes, %zu on the surface of which %zu curved onto "
+                  "the %s (%zu taken back to keep elements valid), smallest scaled Jacobian "
+                  "bound %.3f",
+                  stats.edges, stats.surface_edges, stats.curved,
+                  background ? "repaired surface" : "(no background: straight)", stats.straightened,
+                  stats.min_scaled_jacobian);
+    info(buf);
+    return out;
 }
 
 // What report.html tells besides the mesh: names, the voxels' volume per label (from

@@ -177,6 +177,10 @@ core::TetMesh refine(const core::TetMesh& mesh, const RefineParams& params,
         ctx.info("refine: node removal took out " + std::to_string(refiner.counts.nodes_removed) +
                  " nodes");
     }
+    // tetra.max_edge_length: split the long interior edges before the passes, which then
+    // improve the split tets; once more after the last pass (smoothing and flips may make a
+    // few edges long again), so that the result honours the cap.
+    if (params.max_edge_length > 0.0) refiner.split_long_edges(params.max_edge_length);
     ctx.progress(1.0 / steps, "node removal");
     for (int pass = 1; pass <= params.passes; ++pass) {
         ctx.check_cancelled();
@@ -194,6 +198,18 @@ core::TetMesh refine(const core::TetMesh& mesh, const RefineParams& params,
         figures = measure(topo, refiner);
         record(ctx, "refine.sliver", figures);
         ctx.info("refine: sliver pass: " + describe(figures));
+    }
+    if (params.max_edge_length > 0.0) {
+        const std::size_t left = refiner.split_long_edges(params.max_edge_length);
+        figures = measure(topo, refiner);
+        ctx.count("refine.edge_splits", static_cast<double>(refiner.counts.edge_splits));
+        ctx.count("refine.long_edges_left", static_cast<double>(left));
+        ctx.info("refine: " + std::to_string(refiner.counts.edge_splits) +
+                 " edge splits for tetra.max_edge_length; " + describe(figures));
+        if (left > 0)
+            ctx.warn("refine: " + std::to_string(left) +
+                     " interior edge(s) stay longer than tetra.max_edge_length (a split would "
+                     "flatten a tet, or the split rounds ran out)");
     }
     report_surface_fixed(topo, refiner, ctx);
     const RefineCounts& c = refiner.counts;

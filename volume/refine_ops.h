@@ -44,6 +44,7 @@ struct RefineCounts {
     std::size_t smoothing_moves = 0;
     std::size_t flips_2_3 = 0, flips_3_2 = 0, flips_4_4 = 0, flips_n_m = 0;
     std::size_t sliver_flips = 0, sliver_moves = 0, sliver_removals = 0, sliver_insertions = 0;
+    std::size_t edge_splits = 0;                    ///< tetra.max_edge_length
     std::size_t flip_attempts = 0, edge_rings = 0;  ///< work done (tets examined, rings walked)
 };
 
@@ -125,6 +126,20 @@ public:
     /// face, so the walls and the input triangles stay. Kept when every new tet is strictly
     /// positive (exact) and the largest cost falls (never more tets above skewness 0.8).
     bool insert_node(std::int32_t t, Objective objective);
+
+    /// tetra.max_edge_length: splits interior edge (a, b) (around tet t) at its midpoint m:
+    /// each tet (a, b, r_k, r_k+1) of its ring becomes (m, b, r_k, r_k+1) and (a, m, r_k,
+    /// r_k+1). False, with nothing changed, when the edge lies on a wall (its ring is open) or
+    /// a new tet would not be strictly positive (exact).
+    bool split_edge(std::int32_t a, std::int32_t b, std::int32_t t);
+
+    /// Splits the interior edges longer than their cap, longest first (ties by node ids), in
+    /// rounds until none is left or kMaxSplitRounds rounds ran; returns how many such edges
+    /// are left (walls excluded: the input surface is kept). The cap of edge (a, b) is
+    /// `max_length` (mm), or the longest input-surface edge at a or b when that is longer:
+    /// a tet on a surface triangle larger than the cap keeps edges of about its size.
+    std::size_t split_long_edges(double max_length);
+    static constexpr int kMaxSplitRounds = 32;
 
     /// 2 -> 3: face i of tet t and the tet across it become three tets around the new edge AB.
     bool flip_2_3(std::int32_t t, int i, Objective objective);

@@ -164,6 +164,12 @@ void RegionMesher::setup_level() {
         rs_[v] = std::max(1.0 + s.c[v], 1.0) * s.rs[v];  // Eq. 7
     }
     smooth_heights(s.front_nodes);
+    // tetra.max_edge_length: the spacing of the next level front is at most the height of
+    // the regular tet of edge L, sqrt(2/3) L, so that the front stops growing past the cap.
+    if (params_.max_edge_length > 0.0) {
+        const double cap = std::sqrt(2.0 / 3.0) * params_.max_edge_length;
+        for (std::int32_t v : s.front_nodes) h_[v] = std::min(h_[v], cap);
+    }
 }
 
 /// §3.1.3, Eqs. 3-4 at every node on the front: N_i the normalised sum of the normals of its
@@ -450,6 +456,18 @@ void RegionMesher::new_point_frame(Base& bk) const {
             }
         }
         bk.xo = 0.5 * (bk.A[best] + bk.A[(best + 1) % 3]);
+    }
+    // tetra.max_edge_length L: x_p = x_o + h n over the base plane is at sqrt(h^2 + |A_i -
+    // x_o|^2) from node A_i, so h <= sqrt(L^2 - max |A_i - x_o|^2) keeps the new edges within
+    // L. A base with edges of at most L keeps h >= L / 2 (x_o within (sqrt 3 / 2) L of every
+    // node); Eq. 8's floor 0.5 sqrt(area) stays, since a flat tet is worse than a long edge,
+    // which refine splits.
+    if (params_.max_edge_length > 0.0) {
+        double d2 = 0.0;
+        for (int i = 0; i < 3; ++i) d2 = std::max(d2, (bk.A[i] - bk.xo).squaredNorm());
+        const double L2 = params_.max_edge_length * params_.max_edge_length;
+        bk.h =
+            std::min(bk.h, std::max(std::sqrt(std::max(L2 - d2, 0.0)), 0.5 * std::sqrt(bk.area)));
     }
     const V3 xp = bk.xo + bk.h * bk.n;  // Eq. 10, g = 1
     bk.xc = 0.4 * bk.xm + 0.6 * xp;     // Eq. 11

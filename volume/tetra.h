@@ -32,6 +32,11 @@ struct TetraParams {
     /// removes one more ring of tets around what is left and refills it with relaxed quality
     /// tests, exact validity tests kept). Default 8, range [0, 100].
     int max_closing_rounds = 8;
+    /// Largest edge inside the volume, mm (0: no cap). The height of a new point over its
+    /// base (Eqs. 6 and 8) is capped so that the new edges are not longer; edges the front
+    /// still makes longer (joining existing nodes) are split by refine. Surface edges are
+    /// the input's and are never changed. Default 0, range [0, 1e6].
+    double max_edge_length = 0.0;
 };
 
 /// Every `tetra.*` recipe key: the member it sets, default, range, unit and a one-line

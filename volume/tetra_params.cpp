@@ -17,6 +17,8 @@ const core::ParamTable<TetraParams>& tetra_keys() {
          "smallest face-face and edge-face angle of the step-4 tests"},
         {"tetra.max_closing_rounds", &P::max_closing_rounds, "8", core::closed(0, 100), "",
          "rounds of the closing phase for the cavities the layered front leaves"},
+        {"tetra.max_edge_length", &P::max_edge_length, "0", core::closed(0.0, 1e6), "mm",
+         "largest edge inside the volume (front heights capped, refine splits); 0: no cap"},
     };
     return table;
 }

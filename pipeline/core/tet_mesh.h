@@ -43,6 +43,15 @@ struct TetMesh {
     std::vector<std::int32_t> twin;
     std::vector<std::int32_t> face_twin;
 
+    /// Quadratic tets (output.order 2, volume::elevate_to_quadratic): per tet its six mid-edge
+    /// nodes in VTK's edge order (core::kTetEdge: 01, 12, 20, 03, 13, 23), per face its three
+    /// (core::kTriEdge: 01, 12, 20). The mid nodes are numbered after every corner node, one
+    /// per edge (core/quadratic_nodes.h). Both empty for linear tets (every stage works on
+    /// those; only the exports see quadratic ones). Memory: 24 B per tet + 12 B per face.
+    std::vector<std::array<std::int32_t, 6>> tet_mid;
+    std::vector<std::array<std::int32_t, 3>> face_mid;
+    bool is_quadratic() const { return !tet_mid.empty(); }
+
     std::size_t node_count() const { return xyz.size() / 3; }
     std::size_t tet_count() const { return tets.size(); }
     std::size_t face_count() const { return faces.size(); }

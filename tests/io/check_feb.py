@@ -7,9 +7,11 @@ the sections frontmesh writes (FEBio 4 User's Manual, "Free format input"):
     that order (Output may follow);
   - Module type solid with units; Control: analysis STATIC, time_steps > 0, step_size > 0,
     a solver; every material has an id, a name, a type and numeric parameters;
-  - Mesh: node ids 1..n; every Elements part named, tet4, its element ids unique and its
-    nodes existing; every Surface face (tri3) references existing nodes and is a face of an
-    element, oriented out of it; NodeSet / ElementSet members exist (lists and a:b ranges);
+  - Mesh: node ids 1..n; every Elements part named, tet4 (or, for output.order 2, tet10:
+    corners, then the mid nodes of edges 1-2, 2-3, 3-1, 1-4, 2-4, 3-4), its element ids
+    unique and its nodes existing; every Surface face (tri3, or tri6 of tet10 parts:
+    corners, then edges 1-2, 2-3, 3-1) references existing nodes and is a face of an
+    element, oriented out of it, with that element's mid nodes on its edges; NodeSet / ElementSet members exist (lists and a:b ranges);
     names of parts, surfaces, sets unique; every SurfacePair names two existing surfaces
     of the same triangles: on the same nodes, or, for an interface split by
     output.split_interfaces (sides on their own nodes), at the same coordinates;
@@ -101,10 +103,16 @@ def main(path):
         fail("node ids are not 1..n")
     parts, elements, outward = {}, set(), {}
     cycles = ((1, 2, 3), (0, 3, 2), (0, 1, 3), (0, 2, 1))  # tet4 faces, normals outwards
+    # tet10: the mid node of edge (i, j) of the corners (FEBio's and VTK's order).
+    tet10_edges = ((0, 1), (1, 2), (2, 0), (0, 3), (1, 3), (2, 3))
+    mid_of = {}  # sorted corner pair -> mid node (tet10)
+    types = set()
     for part in mesh.findall("Elements"):
         name = part.get("name")
-        if not name or part.get("type") != "tet4":
-            fail(f"Elements {name}: needs a name and type tet4")
+        if not name or part.get("type") not in ("tet4", "tet10"):
+            fail(f"Elements {name}: needs a name and type tet4 or tet10")
+        types.add(part.get("type"))
+        per_element = 10 if part.get("type") == "tet10" else 4
         if name in parts:
             fail(f"part {name} defined twice")
         parts[name] = len(part)
@@ -113,9 +121,14 @@ def main(path):
             if eid in elements:
                 fail(f"element id {eid} repeats")
             elements.add(eid)
-            q = [int(v) for v in numbers(e.text, 4, f"element {eid}")]
+            q = [int(v) for v in numbers(e.text, per_element, f"element {eid}")]
             if not set(q) <= nodes:
                 fail(f"element {eid} references a missing node")
+            if per_element == 10:
+                for k, (i, j) in enumerate(tet10_edges):
+                    key = (min(q[i], q[j]), max(q[i], q[j]))
+                    if mid_of.setdefault(key, q[4 + k]) != q[4 + k]:
+                        fail(f"element {eid}: edge {key} has two mid nodes")
             for c in cycles:
                 a, b, d = (q[k] for k in c)
                 for rot in ((a, b, d), (b, d, a), (d, a, b)):
@@ -127,16 +140,24 @@ def main(path):
         if not name or name in names:
             fail(f"surface {name}: no name, or the name is taken")
         names.add(name)
+        facet = "tri6" if types == {"tet10"} else "tri3"
         for f in s:
-            if f.tag != "tri3":
-                fail(f"surface {name}: face type {f.tag}")
-            tri = tuple(int(v) for v in numbers(f.text, 3, f"surface {name}"))
-            if not set(tri) <= nodes:
+            if f.tag != facet:
+                fail(f"surface {name}: face type {f.tag}, expected {facet}")
+            six = tuple(int(v) for v in numbers(f.text, 6 if facet == "tri6" else 3,
+                                                f"surface {name}"))
+            tri = six[:3]
+            if not set(six) <= nodes:
                 fail(f"surface {name}: face {f.get('id')} references a missing node")
             if tri not in outward:
                 fail(f"surface {name}: face {tri} is not an outward element face")
+            for k in range(len(six) - 3):
+                a, b = tri[k], tri[(k + 1) % 3]
+                if mid_of.get((min(a, b), max(a, b))) != six[3 + k]:
+                    fail(f"surface {name}: face {six}: node {six[3 + k]} is not the mid node "
+                         f"of edge ({a}, {b})")
         surfaces[name] = len(s)
-        faces[name] = [tuple(int(v) for v in f.text.split(",")) for f in s]
+        faces[name] = [tuple(int(v) for v in f.text.split(","))[:3] for f in s]
         if not len(s):
             fail(f"surface {name} is empty")
     for tag, members, what in (("NodeSet", nodes, "node"), ("ElementSet", elements, "element")):

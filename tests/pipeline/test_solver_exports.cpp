@@ -422,3 +422,112 @@ TEST_CASE("CalculiX ties a split interface that ends on an unsplit junction",
     CHECK(max_u > 0.0);
     CHECK(max_jump <= 1e-3 * max_u);
 }
+
+namespace {
+
+/// "FILE tets N volume V ..." lines of check_quadratic.py: file name -> volume.
+std::map<std::string, double> quadratic_volumes(const std::string& out) {
+    std::map<std::string, double> volumes;
+    std::istringstream in(out);
+    for (std::string line; std::getline(in, line);) {
+        std::istringstream s(line);
+        std::string file, tets_word, volume_word;
+        std::size_t tets = 0;
+        double volume = 0;
+        if (s >> file >> tets_word >> tets >> volume_word >> volume && tets_word == "tets" &&
+            volume_word == "volume")
+            volumes[fs::path(file).filename().string()] = volume;
+    }
+    return volumes;
+}
+
+}  // namespace
+
+TEST_CASE("quadratic tets (output.order 2) read back in every format and CalculiX solves them",
+          "[pipeline][export][quadratic][ccx]") {
+    const std::string dir = fixtures::temp_dir("solver_quadratic");
+    fixtures::write_metaimage(fixtures::nested_ellipsoids_image(1.0, 0.6), dir + "/phantom.mha");
+    write_file(dir + "/names.txt", "1 Brain\n2 CSF\n3 Skull\n");
+    write_file(dir + "/q.yaml",
+               "input:\n  image: phantom.mha\n  label_names: names.txt\noutput:\n  dir: out\n"
+               "  formats: [vtu, msh, msh22, inp, feb]\n  order: 2\n");
+    const auto run = run_frontmesh("run q.yaml --quiet", dir);
+    INFO(run.err);
+    REQUIRE(run.exit_code == 0);
+    const fs::path out = fs::path(dir) / "out";
+    const std::string log = slurp(out / "frontmesh.log");
+    CHECK_THAT(log, Catch::Contains("quadratic tets: "));
+
+    // Every format read back (meshio; gmsh itself for .msh where installed): positive
+    // Jacobians everywhere, mid nodes on their edges, the same volume in every format.
+    std::string files;
+    for (const char* f : {"mesh.vtu", "mesh.msh", "mesh.v22.msh", "mesh.inp", "mesh.feb"})
+        files += " '" + (out / f).string() + "'";
+    const Shell check =
+        shell("/usr/bin/python3 '" FRONTMESH_SOURCE_DIR "/tests/io/check_quadratic.py'" + files);
+    INFO(check.out);
+    REQUIRE(check.exit_code == 0);
+    const auto volumes = quadratic_volumes(check.out);
+    REQUIRE(volumes.size() == 5);
+    for (const auto& [file, v] : volumes) {
+        INFO(file);
+        CHECK(v == Approx(volumes.at("mesh.vtu")).epsilon(1e-9));
+    }
+    // Curved boundaries add volume where the straight tets cut the surface's curvature off.
+    const core::TetMesh linear = io::read_tet_mesh((out / "checkpoints/05-refine.vtu").string());
+    double linear_volume = 0;
+    for (const auto& [r, v] : region_volumes(linear)) linear_volume += v;
+    CHECK(volumes.at("mesh.vtu") == Approx(linear_volume).epsilon(0.02));
+    CHECK(volumes.at("mesh.vtu") != linear_volume);
+
+    // FEBio: tet10 parts, tri6 facets whose mid nodes are their elements'.
+    const Shell feb = shell("/usr/bin/python3 '" FRONTMESH_SOURCE_DIR "/tests/io/check_feb.py' '" +
+                            (out / "mesh.feb").string() + "'");
+    INFO(feb.out);
+    CHECK(feb.exit_code == 0);
+    const std::string inp = slurp(out / "mesh.inp");
+    CHECK_THAT(inp, Catch::Contains("*ELEMENT, TYPE=C3D10, ELSET="));
+    // frontmesh check reads quadratic files as their corner tets (mid nodes unused).
+    for (const char* f : {"out/mesh.vtu", "out/mesh.msh", "out/mesh.inp"}) {
+        const auto checked = run_frontmesh(std::string("check ") + f, dir);
+        INFO(f << ": " << checked.out << checked.err);
+        CHECK(checked.exit_code == 0);
+    }
+    CHECK_THAT(inp, !Catch::Contains("C3D4"));
+
+    // MEDIT .mesh has no quadratic tets: refused before any work, naming the key.
+    const auto medit = run_frontmesh("run q.yaml --quiet --set 'output.formats=[vtu, mesh]'", dir);
+    CHECK(medit.exit_code == 2);
+    CHECK_THAT(medit.err, Catch::Contains("output.order"));
+
+    // Split interfaces and quadratic tets: each side its own mid nodes, the FEBio pair
+    // still the same triangles at the same places.
+    const auto split = run_frontmesh(
+        "run q.yaml --quiet --set 'output.split_interfaces=[[2, 1]]' --set 'output.formats=[feb]'",
+        dir);
+    INFO(split.err);
+    REQUIRE(split.exit_code == 0);
+    const Shell split_feb =
+        shell("/usr/bin/python3 '" FRONTMESH_SOURCE_DIR "/tests/io/check_feb.py' '" +
+              (out / "mesh.feb").string() + "'");
+    INFO(split_feb.out);
+    CHECK(split_feb.exit_code == 0);
+    CHECK_THAT(split_feb.out, Catch::Contains("split pairs 1\n"));
+
+    if (shell("command -v ccx").exit_code != 0) {
+        FM_SKIP("ccx not installed (scripts/install-deps.sh installs calculix-ccx)");
+    }
+    // C3D10: a material and a section per region, the skull's inner surface held (corner
+    // and mid nodes), pressure on the outer boundary and gravity.
+    const auto again = run_frontmesh("run q.yaml --quiet", dir);
+    REQUIRE(again.exit_code == 0);
+    std::string deck;
+    for (const auto& [label, set] : region_sets(out / "mesh.inp"))
+        deck += "*MATERIAL, NAME=M" + std::to_string(label) + "\n*ELASTIC\n" +
+                std::to_string(1000 * label) + "., 0.45\n*DENSITY\n1.E-9\n" +
+                "*SOLID SECTION, ELSET=" + set + ", MATERIAL=M" + std::to_string(label) + "\n";
+    deck += "*BOUNDARY\ninterface_CSF_Skull_NODES, 1, 3\n";
+    solve_with_ccx(out, deck,
+                   "*DSLOAD\nboundary, P, 0.01\n*DLOAD\nALLELEMENTS, GRAV, 9810., 0., 0., -1.\n",
+                   node_count(out / "mesh.inp"));
+}

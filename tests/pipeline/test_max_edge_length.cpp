@@ -1,0 +1,153 @@
+// tetra.max_edge_length (issue 22, item 5): a size cap inside the volume, honoured by the
+// front (capped heights) and by refine (edge splits); the surface is kept as it is.
+
+#include <algorithm>
+#include <filesystem>
+#include <set>
+#include <utility>
+#include <vector>
+
+#include <catch2/catch.hpp>
+
+#include "io/mesh_io.h"
+#include "pipeline/core/stage_context.h"
+#include "tests/fixtures/phantoms.h"
+#include "tests/pipeline/cli_helpers.h"
+#include "volume/mesh_check.h"
+#include "volume/refine.h"
+#include "volume/tetra.h"
+
+using namespace frontmesh;
+using frontmesh::testing::run_frontmesh;
+using frontmesh::testing::write_file;
+
+namespace {
+
+/// Interior edges (not an edge of a boundary / interface face) of a mesh.
+struct InteriorEdges {
+    double longest = 0;      ///< mm
+    double worst_ratio = 0;  ///< largest length / max(cap, longest surface edge at its nodes)
+    double over_cap = 0;     ///< fraction longer than the cap
+};
+
+InteriorEdges interior_edges(const core::TetMesh& mesh, double cap) {
+    std::set<std::pair<std::int32_t, std::int32_t>> surface;
+    std::vector<double> surface_edge(mesh.node_count(), 0.0);
+    for (const auto& f : mesh.faces)
+        for (int k = 0; k < 3; ++k) {
+            const std::int32_t a = f[k], b = f[(k + 1) % 3];
+            surface.insert(std::minmax(a, b));
+            const double l = (mesh.point(a) - mesh.point(b)).norm();
+            for (const std::int32_t v : {a, b})
+                surface_edge[static_cast<std::size_t>(v)] =
+                    std::max(surface_edge[static_cast<std::size_t>(v)], l);
+        }
+    std::set<std::pair<std::int32_t, std::int32_t>> seen;
+    InteriorEdges e;
+    std::size_t over = 0;
+    for (const auto& t : mesh.tets)
+        for (int i = 0; i < 4; ++i)
+            for (int j = i + 1; j < 4; ++j) {
+                const auto key = std::minmax(t[i], t[j]);
+                if (surface.count(key) || !seen.insert(key).second) continue;
+                const double l = (mesh.point(t[i]) - mesh.point(t[j])).norm();
+                const double local = std::max({cap, surface_edge[static_cast<std::size_t>(t[i])],
+                                               surface_edge[static_cast<std::size_t>(t[j])]});
+                e.longest = std::max(e.longest, l);
+                e.worst_ratio = std::max(e.worst_ratio, l / local);
+                over += l > cap ? 1 : 0;
+            }
+    e.over_cap = seen.empty() ? 0.0 : static_cast<double>(over) / static_cast<double>(seen.size());
+    return e;
+}
+
+struct Meshed {
+    core::TetMesh tetra, refined;
+    double splits = 0, left = -1;
+};
+
+Meshed mesh_sphere(double cap) {
+    const core::SurfaceNetwork surface = fixtures::uv_sphere(12.0, 24);  // edges <= 3.2 mm
+    volume::TetraParams tp;
+    tp.max_edge_length = cap;
+    volume::RefineParams rp;
+    rp.max_edge_length = cap;  // as the recipe sets it from tetra.max_edge_length
+    core::StageContext tctx, rctx;
+    Meshed m;
+    m.tetra = volume::tetra(surface, tp, tctx);
+    m.refined = volume::refine(m.tetra, rp, rctx);
+    for (const auto& [name, value] : rctx.counters()) {
+        if (name == "refine.edge_splits") m.splits = value;
+        if (name == "refine.long_edges_left") m.left = value;
+    }
+    return m;
+}
+
+}  // namespace
+
+TEST_CASE("tetra.max_edge_length caps the interior edges of tetra and refine",
+          "[pipeline][max_edge_length]") {
+    const Meshed free = mesh_sphere(0.0);
+    const double cap = 3.5;  // above every surface edge: the cap holds everywhere
+    const InteriorEdges free_tetra = interior_edges(free.tetra, cap);
+    const InteriorEdges free_refined = interior_edges(free.refined, cap);
+    INFO("without a cap: longest interior edge " << free_tetra.longest << " mm after tetra, "
+                                                 << free_refined.longest << " mm after refine");
+    REQUIRE(free_refined.longest > 1.3 * cap);  // the cap has something to do
+
+    const Meshed capped = mesh_sphere(cap);
+    const InteriorEdges capped_refined = interior_edges(capped.refined, cap);
+    INFO("with a cap of " << cap << " mm: " << capped.splits << " splits, longest "
+                          << capped_refined.longest << " mm");
+    CHECK(capped.left == 0);
+    CHECK(capped_refined.longest <= cap * (1 + 1e-12));
+
+    // A cap below the surface's edges: the front's capped heights shorten what tetra makes;
+    // after refine an edge at a surface node is at most the longest surface edge there.
+    const double small = 2.0;
+    const Meshed tight = mesh_sphere(small);
+    const InteriorEdges tight_tetra = interior_edges(tight.tetra, small);
+    const InteriorEdges tight_refined = interior_edges(tight.refined, small);
+    INFO("with a cap of " << small << " mm: longest interior edge " << tight_tetra.longest
+                          << " mm after tetra; worst length / local cap after refine "
+                          << tight_refined.worst_ratio);
+    CHECK(tight_tetra.longest < 0.8 * free_tetra.longest);
+    CHECK(tight.tetra.tet_count() > free.tetra.tet_count());
+    CHECK(tight.left == 0);
+    CHECK(tight_refined.worst_ratio <= 1 + 1e-12);
+    CHECK(volume::check_tet_mesh(tight.refined).valid());
+    CHECK(capped.refined.tet_count() > free.refined.tet_count());
+
+    // Still a valid mesh of the same surface: conforming, positive, faces kept exactly.
+    const volume::TetMeshCheck check = volume::check_tet_mesh(capped.refined);
+    INFO(check.summary());
+    CHECK(check.valid());
+    CHECK(check.volume == Approx(check.enclosed_volume).epsilon(1e-9));
+    CHECK(capped.refined.faces == free.refined.faces);
+    CHECK(std::equal(free.refined.xyz.begin(),
+                     free.refined.xyz.begin() + 3 * free.refined.surface_vertices,
+                     capped.refined.xyz.begin()));
+    CHECK(check.quality.min_dihedral_deg > 5.0);
+}
+
+TEST_CASE("tetra.max_edge_length from a recipe reaches mesh.vtu", "[pipeline][max_edge_length]") {
+    const std::string dir = fixtures::temp_dir("max_edge_length_run");
+    fixtures::write_metaimage(fixtures::sphere_image(24, 9.0), dir + "/ball.mha");
+    write_file(dir + "/r.yaml",
+               "input:\n  image: ball.mha\noutput:\n  dir: out\ntetra:\n  max_edge_length: 1.5\n");
+    const auto r = run_frontmesh("run r.yaml --quiet", dir);
+    INFO(r.err);
+    REQUIRE(r.exit_code == 0);
+    const core::TetMesh mesh = io::read_tet_mesh(dir + "/out/mesh.vtu");
+    // Edges at surface nodes may be as long as the surface edges there (kept as remeshed).
+    const InteriorEdges edges = interior_edges(mesh, 1.5);
+    INFO("longest interior edge " << edges.longest << " mm");
+    CHECK(edges.worst_ratio <= 1 + 1e-12);
+    CHECK(volume::check_tet_mesh(mesh).valid());
+    const std::string summary = frontmesh::testing::slurp(dir + "/out/summary.json");
+    CHECK_THAT(summary, Catch::Contains("\"refine.long_edges_left\": 0"));
+    // Out of range: one line naming the key, exit 2.
+    const auto bad = run_frontmesh("run r.yaml --quiet --set tetra.max_edge_length=-1", dir);
+    CHECK(bad.exit_code == 2);
+    CHECK_THAT(bad.err, Catch::Contains("tetra.max_edge_length"));
+}
