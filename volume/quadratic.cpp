@@ -178,10 +178,16 @@ core::TetMesh elevate_to_quadratic(const core::TetMesh& mesh,
         if (p != kInterior) {
             st.surface_edges += static_cast<std::size_t>(group_start[g + 1] - group_start[g]);
             if (p >= 0 && patch[static_cast<std::size_t>(p)]) {
-                const auto proj = patch[static_cast<std::size_t>(p)]->project(m);
-                if (proj.distance <= kMaxSagitta * (b - a).norm()) {
-                    is_curved = proj.distance > 0.0;
-                    m = proj.point;
+                const auto& bg = *patch[static_cast<std::size_t>(p)];
+                // Corners moved off the background by remesh.preserve_volume (at most h / 10):
+                // the mid node follows the background shifted by their mean offset, so the
+                // edge bends as the background does instead of dipping back onto it.
+                const V3 shift = 0.5 * ((a - bg.project(a).point) + (b - bg.project(b).point));
+                const V3 placed = bg.project(m).point + shift;
+                const double distance = (placed - m).norm();
+                if (distance <= kMaxSagitta * (b - a).norm()) {
+                    is_curved = distance > 0.0;
+                    m = placed;
                 } else {
                     ++st.not_projected;
                 }

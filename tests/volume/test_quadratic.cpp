@@ -189,8 +189,9 @@ TEST_CASE("quadratic tets of a sphere: curved surface, straight inside, all vali
 TEST_CASE("a curved mid node that would invert a flat tet falls back to the midpoint",
           "[volume][quadratic]") {
     // One flat tet (height 0.05 over a base of edge ~1) whose every face is boundary, and a
-    // background plane 0.15 above the base: projected mid nodes of the base edges would
-    // rise above the apex and fold the element.
+    // background through its corners that bulges between them, z = 0.6 d^2 (d: distance to
+    // the nearest base corner, 0.15 at the base edges' midpoints): projected mid nodes of the
+    // base edges would rise above the apex and fold the element.
     core::TetMesh mesh;
     mesh.add_node(V3(0, 0, 0));
     mesh.add_node(V3(1, 0, 0));
@@ -202,8 +203,21 @@ TEST_CASE("a curved mid node that would invert a flat tet falls back to the midp
     core::derive_boundary_faces(mesh);
     mesh.surface_vertices = 4;
     core::SurfaceNetwork plane;
-    plane.xyz = {-10, -10, 0.15, 10, -10, 0.15, 0, 10, 0.15};
-    plane.add_face(0, 1, 2, 1, 0);
+    const int n = 60;  // grid over [-0.5, 1.5]^2, step 1/30
+    for (int j = 0; j <= n; ++j)
+        for (int i = 0; i <= n; ++i) {
+            const double x = -0.5 + 2.0 * i / n, y = -0.5 + 2.0 * j / n;
+            double d2 = 1e300;
+            for (int k = 0; k < 3; ++k)
+                d2 = std::min(d2, (V3(x, y, 0) - mesh.point(k)).squaredNorm());
+            plane.xyz.insert(plane.xyz.end(), {x, y, 0.6 * d2});
+        }
+    for (int j = 0; j < n; ++j)
+        for (int i = 0; i < n; ++i) {
+            const int a = j * (n + 1) + i, b = a + 1, c = a + n + 1, d = c + 1;
+            plane.add_face(a, b, d, 1, 0);
+            plane.add_face(a, d, c, 1, 0);
+        }
     volume::QuadraticStats stats;
     const core::TetMesh q = volume::elevate_to_quadratic(mesh, &plane, &stats);
     INFO("curved " << stats.curved << ", taken back " << stats.straightened);
