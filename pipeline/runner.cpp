@@ -407,7 +407,7 @@ private:
     bool runs(const std::string& stage) const;
     void check_resources(int i);
     void check_input_resources();
-    Quality write_checkpoint(int i, const StageOutput& output, core::StageContext& ctx);
+    Quality write_checkpoint(int i, const StageOutput& output);
     void write_stage_summary(int i, const core::StageContext& ctx, double wall,
                              const Quality& quality, std::chrono::system_clock::time_point started);
     std::string write_results();
@@ -676,7 +676,7 @@ void Run::run_one(int i) {
                                   input_json_ + "\n");
         input_json_.clear();
     }
-    const Quality quality = write_checkpoint(i, output, ctx);
+    const Quality quality = write_checkpoint(i, output);
     write_stage_summary(i, ctx, wall, quality, started);
 }
 
@@ -761,7 +761,7 @@ StageOutput Run::call_stage(int i, core::StageContext& ctx) {
 // hash inside the checkpoint instead would mean reading the whole VTU on every re-run.
 // Each step is one unlink or rename, which a kill -9 cannot split (a power cut could
 // reorder them: no fsync is made).
-Quality Run::write_checkpoint(int i, const StageOutput& output, core::StageContext& ctx) {
+Quality Run::write_checkpoint(int i, const StageOutput& output) {
     const StageDef& stage = stages_[i];
     fs::remove(out_.with_ext(stage, ".hash"));
     committed(out_.with_ext(stage, ".hash"));
@@ -779,7 +779,17 @@ Quality Run::write_checkpoint(int i, const StageOutput& output, core::StageConte
             tetra_histograms_ =
                 quality_histograms(mesh, &figures_);  // "before refine" in report.html
         const TetReport report = tet_report(mesh, &figures_);
-        if (!report.valid) ctx.warn(stage.name + " produced an invalid mesh: " + report.line);
+        // A mesh the checks call invalid is never handed on or exported as a result: the
+        // checkpoint stays for inspection (without its hash, so a re-run meshes again) and the
+        // run fails as our own bug (exit 1).
+        if (!report.valid) {
+            const std::string why = stage.name + " produced an invalid mesh (" +
+                                    out_.checkpoint(stage).string() + "): " + report.line;
+            log_.clear_progress();
+            log_.line(core::LogLevel::Warning, stage.name + " failed: " + why);
+            write_summary("failed", why);
+            FM_THROW(MeshingError, why);
+        }
         return {report.json, report.line};
     }
     const auto& surface = std::get<core::SurfaceNetwork>(data_);
