@@ -4,6 +4,7 @@
 
 #include <array>
 #include <cmath>
+#include <cstdint>
 #include <vector>
 
 #include <catch2/catch.hpp>
@@ -13,6 +14,7 @@
 #include "pipeline/core/self_intersection.h"
 #include "surface/extract.h"
 #include "surface/remesh.h"
+#include "surface/remesh_internal.h"
 #include "surface/repair.h"
 
 using namespace frontmesh;
@@ -81,4 +83,35 @@ TEST_CASE("remesh 2x2x2 label blocks with an edge length larger than the regions
         const surface::RemeshResult r = surface::remesh(bg, params, ctx);
         check_valid(bg, r);
     }
+}
+
+TEST_CASE("remesh of random labels ends within its work budget (issue 21)", "[remesh][torture]") {
+    // An 8^3 block of seven random labels (1 mm voxels): thousands of patches a voxel across,
+    // whose stalls once made the rounds mesh ever more of them finer (a 16^3 block ran for
+    // more than ten minutes). RetryPolicy::spend bounds the stage's work by
+    // (kWorkBudget + 64) times the first round's.
+    core::LabelImage image;
+    image.dims = {10, 10, 10};
+    image.spacing = Eigen::Vector3d::Ones();
+    image.origin = Eigen::Vector3d::Zero();
+    image.labels.assign(image.voxel_count(), 0);
+    std::uint32_t state = 3;  // a fixed linear congruential sequence: the same block everywhere
+    for (int k = 1; k < 9; ++k)
+        for (int j = 1; j < 9; ++j)
+            for (int i = 1; i < 9; ++i) {
+                state = state * 1664525u + 1013904223u;
+                image.labels[image.index(i, j, k)] = core::Label((state >> 16) % 7);
+            }
+    image.source = "random block";
+    const core::SurfaceNetwork bg = background_of(image);
+    core::StageContext ctx;
+    const surface::RemeshResult r = surface::remesh(bg, surface::RemeshParams{}, ctx);
+    check_valid(bg, r);
+    const double ratio = ctx.counters().at("remesh.work_ratio");
+    INFO("work ratio " << ratio << ", rounds " << ctx.counters().at("remesh.rounds"));
+    CHECK(ratio <= surface::remesh_detail::RetryPolicy::kWorkBudget + 64.0);
+    bool budget_named = false;
+    for (const auto& w : ctx.warnings())
+        budget_named |= w.find("times the first round's") != std::string::npos;
+    CHECK(budget_named == (ratio > surface::remesh_detail::RetryPolicy::kWorkBudget));
 }
