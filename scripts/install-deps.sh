@@ -16,6 +16,7 @@ packages=(
   snakemake                                      # examples/cohort/Snakefile (local or SLURM)
   python3-jsonschema                             # summary.json against docs/summary.schema.json
   chromium                                       # scripts/report-screenshot.sh (report.html)
+  python3-dolfinx python3-gmsh                   # FEniCSx reads our .msh and solves on it (tests)
 )
 
 missing=()

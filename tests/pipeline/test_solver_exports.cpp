@@ -215,6 +215,28 @@ TEST_CASE("tag numbers do not change when a run meshes a subset of the labels",
     }
 }
 
+TEST_CASE("FEniCSx reads the .msh with the same tags in two subjects and solves Poisson on it",
+          "[pipeline][export][fenicsx]") {
+    if (shell("/usr/bin/python3 -c 'import dolfinx.io.gmshio'").exit_code != 0) {
+        FM_SKIP("dolfinx not installed (scripts/install-deps.sh installs python3-dolfinx)");
+    }
+    const std::string dir = fixtures::temp_dir("solver_fenicsx");
+    fixtures::write_metaimage(fixtures::nested_ellipsoids_image(1.0, 0.6), dir + "/phantom.mha");
+    // Every label, and a second subject without label 1: region 2's inner surface is then
+    // its boundary (tag 2) while the 2|3 interface keeps tag 200003 (README, tag numbers).
+    const fs::path all = mesh_image(dir, "phantom.mha", "all", "all");
+    const fs::path subset = mesh_image(dir, "phantom.mha", "subset", "[2, 3]");
+    const std::string script = FRONTMESH_SOURCE_DIR "/tests/io/check_fenicsx.py";
+    const Shell a = shell("/usr/bin/python3 '" + script + "' '" + (all / "mesh.msh").string() +
+                          "' 1,2,3 3,100002,200003");
+    INFO(a.out);
+    CHECK(a.exit_code == 0);
+    const Shell b = shell("/usr/bin/python3 '" + script + "' '" + (subset / "mesh.msh").string() +
+                          "' 2,3 2,3,200003");
+    INFO(b.out);
+    CHECK(b.exit_code == 0);
+}
+
 TEST_CASE("CalculiX solves the .inp of a three-region phantom unchanged",
           "[pipeline][export][ccx]") {
     if (shell("command -v ccx").exit_code != 0) {
