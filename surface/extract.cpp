@@ -836,6 +836,16 @@ core::SurfaceNetwork flying_edges(const core::LabelImage& image, std::vector<Lab
         field->DeepCopy(blur->GetOutput());
         vtkDataArray* f = field->GetPointData()->GetScalars();
         FM_CHECK(f != nullptr && f->GetNumberOfTuples() == vtkIdType(labels.size()));
+        // The blur renormalises its kernel at the image's faces, so a mask that reaches the
+        // padding (a head cut at the neck, ch2.nii.gz) stays above 0.5 on the outermost voxel
+        // layer, where flying edges leaves the surface open. That layer is the padding's
+        // outside: it stays below the level and the surface closes one voxel inside.
+        for (int k = 0; k < image.dims[2]; ++k)
+            for (int j = 0; j < image.dims[1]; ++j)
+                for (int i = 0; i < image.dims[0]; ++i)
+                    if (i == 0 || j == 0 || k == 0 || i == image.dims[0] - 1 ||
+                        j == image.dims[1] - 1 || k == image.dims[2] - 1)
+                        f->SetTuple1(vtkIdType(image.index(i, j, k)), 0.0);
         for (std::size_t v = 0; v < labels.size(); ++v)
             labels[v] = f->GetTuple1(vtkIdType(v)) > 0.5 ? label : 0;
         const std::vector<Label> before = labels;
