@@ -3,14 +3,17 @@
 # the mid-height plane (crinkle clip, whole tets), in the label colours the VTU stores, with
 # their edges, seen from above (issue 22: what a user sees in ParaView). Usage:
 #   bash scripts/paraview-screenshot.sh OUT/mesh.vtu [PNG]
-# Needs Debian's paraview (pvbatch) and xvfb; python3-paraview conflicts with python3-vtk9,
-# so it is unpacked aside (dpkg -x) and put first on PYTHONPATH, as the brief describes.
+# Needs Debian's paraview (pvbatch) and xvfb, installed WITHOUT recommends:
+#   apt-get install --no-install-recommends paraview xvfb xauth
+# paraview recommends python3-paraview, which conflicts with python3-vtk9 and takes
+# libvtk9-dev away with it (the build and the referee need both). This script unpacks
+# python3-paraview aside (dpkg -x) and puts it first on PYTHONPATH instead.
 set -euo pipefail
 mesh=${1:?usage: paraview-screenshot.sh MESH.vtu [PNG]}
 png=${2:-/tmp/frontmesh-paraview.png}
 [ -f "$mesh" ] || { echo "paraview-screenshot: '$mesh' does not exist" >&2; exit 2; }
-command -v pvbatch > /dev/null || { echo "paraview-screenshot: apt-get install paraview" >&2; exit 2; }
-command -v xvfb-run > /dev/null || { echo "paraview-screenshot: apt-get install xvfb xauth" >&2; exit 2; }
+command -v pvbatch > /dev/null || { echo "paraview-screenshot: apt-get install --no-install-recommends paraview" >&2; exit 2; }
+command -v xvfb-run > /dev/null || { echo "paraview-screenshot: apt-get install --no-install-recommends xvfb xauth" >&2; exit 2; }
 aside=${FRONTMESH_PARAVIEW_PYTHON:-/opt/python3-paraview}
 if [ ! -d "$aside/usr/lib/python3/dist-packages/paraview" ]; then
   tmp=$(mktemp -d)
