@@ -81,14 +81,17 @@ int directed_edge(const std::array<std::int32_t, 3>& t, std::int32_t a, std::int
 // using the edge in the same direction) and, with a feature angle, sharp edges. Returns the
 // junction flag per edge; sets out.is_feature_edge, out.junction_edges, out.sharp_edges.
 std::vector<std::uint8_t> mark_feature_edges(const core::SurfaceNetwork& bg,
-                                             double feature_angle_deg, Features& out) {
+                                             double feature_angle_deg,
+                                             const std::vector<std::int32_t>& face_part,
+                                             Features& out) {
     const EdgeTable& et = out.edges;
     const std::size_t ne = et.edge_count();
     const bool use_angle = feature_angle_deg > 0.0;
     const double cos_feature = std::cos(feature_angle_deg * std::numbers::pi / 180.0);
     auto same_pair = [&](std::int32_t f, std::int32_t g) {
         return bg.region_in[std::size_t(f)] == bg.region_in[std::size_t(g)] &&
-               bg.region_out[std::size_t(f)] == bg.region_out[std::size_t(g)];
+               bg.region_out[std::size_t(f)] == bg.region_out[std::size_t(g)] &&
+               (face_part.empty() || face_part[std::size_t(f)] == face_part[std::size_t(g)]);
     };
     out.is_feature_edge.assign(ne, 0);
     std::vector<std::uint8_t> is_junction(ne, 0);
@@ -381,10 +384,13 @@ void trace_patch_loops(const core::SurfaceNetwork& bg, const CurvePlaces& at, st
 
 // §2: "geometrical features are extracted from the background mesh".
 Features find_features(const core::SurfaceNetwork& bg, double feature_angle_deg,
-                       core::StageContext& ctx) {
+                       core::StageContext& ctx, const std::vector<std::int32_t>& face_part) {
+    if (!face_part.empty() && face_part.size() != bg.face_count())
+        FM_THROW(InternalError, "find_features: face_part needs one entry per face");
     Features out;
     out.edges = edge_table(bg);
-    const std::vector<std::uint8_t> is_junction = mark_feature_edges(bg, feature_angle_deg, out);
+    const std::vector<std::uint8_t> is_junction =
+        mark_feature_edges(bg, feature_angle_deg, face_part, out);
     grow_patches(bg, out);
     drop_inner_sharp_edges(is_junction, out);
     const FeatureStar star = feature_star(bg, out);

@@ -78,9 +78,12 @@ struct Features {
 /// a feature angle, curve vertices where the curve turns by more than it), the curves between
 /// corners, the patches they separate and each patch's boundary loops. Sharp edges that do not
 /// separate two patches (dangling in a patch) are dropped. Deterministic.
+/// `face_part` (empty, or one entry per face) cuts patches further: an edge between faces of
+/// different parts is a junction edge (the remesher's cuts around a place where the front
+/// stalls, surface/remesh_cuts.cpp).
 /// Throws GeometryError (naming the vertex) when a patch boundary cannot be followed.
 /// Cost O(m log m) for m faces.
 Features find_features(const core::SurfaceNetwork& background, double feature_angle_deg,
-                       core::StageContext& ctx);
+                       core::StageContext& ctx, const std::vector<std::int32_t>& face_part = {});
 
 }  // namespace frontmesh::surface

@@ -319,6 +319,29 @@ private:
                          const std::string& why) const;
     void seed();
     void smooth();
+    // The front cannot be closed at `place` (`why`): the place is recorded and the edge at
+    // it left in the front, not queued again, so that the front goes on everywhere else and
+    // one attempt finds the patch's such places, up to 64 (the remesh stage cuts them out of
+    // the patch, surface/remesh_cuts.cpp). The diagnostics get the first four.
+    void abandon(const Eigen::Vector3d& place, double radius, const std::string& why);
+    // Every place abandoned, and the first reason: thrown as one FrontStall when the queue
+    // runs dry with a front left.
+    std::vector<Eigen::Vector3d> abandoned_;
+    std::vector<double> abandoned_radius_;  // 2 h there: the zone whose edges wait
+    std::string first_abandoned_why_;
+    // Whether edge e has an end within the zone of an abandoned place: such an edge is not
+    // advanced (it stays in the front), so that the front does not keep remeshing its way
+    // around a place it has given up (each remeshing there would abandon a place 2 h further
+    // on). Cost O(abandoned places).
+    bool waits(std::int32_t e) const {
+        const Eigen::Vector3d& a = xyz_[static_cast<std::size_t>(edges_[std::size_t(e)].a)];
+        const Eigen::Vector3d& b = xyz_[static_cast<std::size_t>(edges_[std::size_t(e)].b)];
+        for (std::size_t i = 0; i < abandoned_.size(); ++i)
+            if ((a - abandoned_[i]).norm() <= abandoned_radius_[i] ||
+                (b - abandoned_[i]).norm() <= abandoned_radius_[i])
+                return true;
+        return false;
+    }
 
     const BackgroundPatch& patch_;
     const SizeFunction& size_;

@@ -118,8 +118,8 @@ bool FrontMesher::local_remesh(std::int32_t e) {
                                 " after " + std::to_string(near) + " local remeshings there";
         const double length =
             (xyz_[static_cast<std::size_t>(b)] - xyz_[static_cast<std::size_t>(a)]).norm();
-        hand_over_stall(centre, std::max(20.0 * length, 8.0), why);
-        throw FrontStall(why, centre, __FILE__, __LINE__, __func__);
+        abandon(centre, std::max(20.0 * length, 8.0), why);
+        return true;  // the edge is not queued again
     }
     remesh_sites_.insert(static_cast<std::int32_t>(remeshings_), centre);
     std::vector<std::int32_t> ring = {a, b}, triangles;
@@ -149,6 +149,26 @@ bool FrontMesher::local_remesh(std::int32_t e) {
     }
     ++remeshings_;
     return true;
+}
+
+void FrontMesher::abandon(const Eigen::Vector3d& place, double radius, const std::string& why) {
+    if (abandoned_.empty()) first_abandoned_why_ = why;
+    constexpr std::size_t kDiagnosedPlaces = 4;
+    if (abandoned_.size() < kDiagnosedPlaces) hand_over_stall(place, radius, why);
+    abandoned_.push_back(place);
+    abandoned_radius_.push_back(2.0 * size_(place, patch_.project(place).face));
+    // Each place costs up to max_local_remesh remeshings around it; past kMaxAbandoned the
+    // attempt ends at once with the places found (the stage cuts them out and the next round
+    // finds the others).
+    constexpr std::size_t kMaxAbandoned = 64;
+    if (abandoned_.size() >= kMaxAbandoned) {
+        std::vector<Eigen::Vector3d> earlier(abandoned_.begin(), abandoned_.end() - 1);
+        FrontStall stall(first_abandoned_why_ + " (and " + std::to_string(earlier.size()) +
+                             " more place(s) in this patch, the most one attempt gives up)",
+                         place, __FILE__, __LINE__, __func__);
+        stall.add_earlier_places(earlier);
+        throw stall;
+    }
 }
 
 // Hands the geometry around a stall to the diagnostics sink (STYLE §4: the stage hands the

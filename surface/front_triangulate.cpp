@@ -112,7 +112,7 @@ PatchMesh FrontMesher::run(const std::vector<PatchLoop>& loops) {
         const QueueEntry top = queue_.top();
         queue_.pop();
         FrontEdge& fe = edges_[static_cast<std::size_t>(top.edge)];
-        if (!fe.alive || fe.fails != top.fails) continue;
+        if (!fe.alive || fe.fails != top.fails || waits(top.edge)) continue;
         if (++steps > max_steps || live_triangles_ > max_triangles) {
             const Eigen::Vector3d& xa = xyz_[static_cast<std::size_t>(fe.a)];
             const std::string why =
@@ -120,7 +120,9 @@ PatchMesh FrontMesher::run(const std::vector<PatchLoop>& loops) {
                 std::string(live_triangles_ > max_triangles ? "triangle" : "step") +
                 " limit) near " + where(xa) + " (" + front_state() + ")";
             hand_over_stall(xa, 8.0, why);
-            throw FrontStall(why, xa, __FILE__, __LINE__, __func__);
+            FrontStall stall(why, xa, __FILE__, __LINE__, __func__);
+            stall.add_earlier_places(abandoned_);
+            throw stall;
         }
         if ((steps & 0x3fff) == 0) {
             ctx_.check_cancelled();
@@ -146,7 +148,9 @@ PatchMesh FrontMesher::run(const std::vector<PatchLoop>& loops) {
             const std::string why =
                 "remesh: the front stalls near " + where(xa) + " (" + front_state() + ")";
             hand_over_stall(xa, 8.0, why);
-            throw FrontStall(why, xa, __FILE__, __LINE__, __func__);
+            FrontStall stall(why, xa, __FILE__, __LINE__, __func__);
+            stall.add_earlier_places(abandoned_);
+            throw stall;
         } else if (!local_remesh(top.edge)) {
             // Nothing to remove around the edge (e.g. a loop edge at a sharp corner
             // before any triangle): the last resort, then any valid closing of its loop.
@@ -166,9 +170,19 @@ PatchMesh FrontMesher::run(const std::vector<PatchLoop>& loops) {
             const Eigen::Vector3d& xa = xyz_[static_cast<std::size_t>(stuck.a)];
             const std::string why = "remesh: the front cannot advance from edge at " + where(xa) +
                                     " and there is nothing to remesh around it";
-            hand_over_stall(xa, 8.0, why);
-            throw FrontStall(why, xa, __FILE__, __LINE__, __func__);
+            abandon(xa, 8.0, why);  // the edge is not queued again
         }
+    }
+    if (front_size_ > 0 && !abandoned_.empty()) {
+        // Every place where the front was given up, found in this one attempt. Edges wait
+        // only at such places, so a front left means at least one place.
+        const Eigen::Vector3d last = abandoned_.back();
+        abandoned_.pop_back();
+        FrontStall stall(first_abandoned_why_ + " (and " + std::to_string(abandoned_.size()) +
+                             " more place(s) in this patch)",
+                         last, __FILE__, __LINE__, __func__);
+        stall.add_earlier_places(abandoned_);
+        throw stall;
     }
     FM_CHECK(front_size_ == 0);
     static const char* const reasons[11] = {
@@ -266,6 +280,7 @@ PatchMesh triangulate_patch(const BackgroundPatch& patch, const std::vector<Patc
     if (params.smoothing_iterations < 0)
         FM_THROW(InputError, "remesh: smoothing_iterations must not be negative");
     if (params.attempts < 1) FM_THROW(InputError, "remesh: attempts must be at least 1");
+    std::vector<Eigen::Vector3d> stalled_at;  // the places of the failed attempts
     for (int attempt = 0;; ++attempt) {
         const double scale = std::pow(front_detail::kAttemptScale, attempt);
         const SizeFunction scaled = [&size, scale](const Eigen::Vector3d& p, std::int32_t face) {
@@ -281,8 +296,16 @@ PatchMesh triangulate_patch(const BackgroundPatch& patch, const std::vector<Patc
             ctx.merge_from(sub);
             ctx.add("remesh.patch_retries", attempt);
             return mesh;
-        } catch (const FrontStall& e) {
-            if (attempt + 1 >= params.attempts) throw;
+        } catch (FrontStall& e) {
+            // Given up at several places, the front closed everywhere else: what fails is the
+            // geometry there, not the attempt's seed or scale, and another attempt would
+            // cost the whole patch again; the stage shrinks or cuts at every place instead.
+            constexpr std::size_t kPlacesForNoRetry = 3;
+            if (attempt + 1 >= params.attempts || e.places().size() >= kPlacesForNoRetry) {
+                e.add_earlier_places(stalled_at);
+                throw;
+            }
+            stalled_at.push_back(e.place());
             ctx.warn(std::string(e.what()) + "; the patch starts again with sizes x " +
                      std::to_string(std::pow(front_detail::kAttemptScale, attempt + 1)));
         }

@@ -120,9 +120,20 @@ public:
                int line = 0, const char* function = "")
         : core::MeshingError(message, file, line, function), place_(place) {}
     const Eigen::Vector3d& place() const { return place_; }
+    /// Every place where an attempt of the patch stalled (triangulate_patch's attempts start
+    /// from other seeds and sizes, so they often stall at different places), place() last.
+    std::vector<Eigen::Vector3d> places() const {
+        std::vector<Eigen::Vector3d> all = earlier_;
+        all.push_back(place_);
+        return all;
+    }
+    void add_earlier_places(const std::vector<Eigen::Vector3d>& places) {
+        earlier_.insert(earlier_.begin(), places.begin(), places.end());
+    }
 
 private:
     Eigen::Vector3d place_;
+    std::vector<Eigen::Vector3d> earlier_;
 };
 
 /// Triangulates the patch from its boundary loops inward (a patch without loops, e.g. a

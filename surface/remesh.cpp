@@ -13,6 +13,7 @@
 #include <cmath>
 #include <iomanip>
 #include <map>
+#include <memory>
 #include <optional>
 #include <set>
 #include <sstream>
@@ -107,29 +108,52 @@ struct PatchCache {
 
     PatchCache(const core::SurfaceNetwork& bg, const Features& features,
                const SizeFieldParams& sp) {
-        const std::size_t np = features.patches.size();
-        patches.reserve(np);
-        for (const auto& p : features.patches) patches.emplace_back(bg, p.faces, false);
-        box.resize(np);
-        for (std::size_t p = 0; p < np; ++p) {
-            const auto& fv = bg.faces[std::size_t(features.patches[p].faces.front())];
-            box[p] = core::AdtBox::of_point(bg.point(fv[0]));
-            for (const std::int32_t f : features.patches[p].faces)
-                for (const std::int32_t v : bg.faces[std::size_t(f)]) box[p].extend(bg.point(v));
-        }
-        meshes.resize(np);
-        contexts.resize(np);
-        meshed_loops.resize(np);
-        meshed.assign(np, 0);
-        meshed_copy.assign(np, 0);
-        nominal_h.assign(np, sp.edge_length);
-        for (std::size_t p = 0; p < np; ++p)
-            for (const core::Label label :
-                 {features.patches[p].region_in, features.patches[p].region_out}) {
-                const auto it = sp.label_edge_length.find(label);
-                if (it != sp.label_edge_length.end())
-                    nominal_h[p] = std::min(nominal_h[p], it->second);
+        for (std::size_t p = 0; p < features.patches.size(); ++p)
+            add_new(bg, features.patches[p], sp);
+    }
+
+    // After cuts (cut_patches): a patch with the same faces as old patch old_of_new[q] keeps
+    // what the cache holds for it, the others start empty.
+    PatchCache(PatchCache&& old, const std::vector<std::int32_t>& old_of_new,
+               const core::SurfaceNetwork& bg, const Features& features,
+               const SizeFieldParams& sp) {
+        for (std::size_t q = 0; q < old_of_new.size(); ++q) {
+            const std::int32_t p = old_of_new[q];
+            if (p < 0) {
+                add_new(bg, features.patches[q], sp);
+                continue;
             }
+            const auto i = std::size_t(p);
+            patches.push_back(std::move(old.patches[i]));
+            box.push_back(old.box[i]);
+            meshes.push_back(std::move(old.meshes[i]));
+            contexts.push_back(std::move(old.contexts[i]));
+            meshed_loops.push_back(std::move(old.meshed_loops[i]));
+            meshed.push_back(old.meshed[i]);
+            meshed_copy.push_back(old.meshed_copy[i]);
+            nominal_h.push_back(old.nominal_h[i]);
+        }
+    }
+
+private:
+    void add_new(const core::SurfaceNetwork& bg, const Patch& patch, const SizeFieldParams& sp) {
+        patches.emplace_back(bg, patch.faces, false);
+        const auto& fv = bg.faces[std::size_t(patch.faces.front())];
+        core::AdtBox b = core::AdtBox::of_point(bg.point(fv[0]));
+        for (const std::int32_t f : patch.faces)
+            for (const std::int32_t v : bg.faces[std::size_t(f)]) b.extend(bg.point(v));
+        box.push_back(b);
+        meshes.emplace_back();
+        contexts.emplace_back();
+        meshed_loops.emplace_back();
+        meshed.push_back(0);
+        meshed_copy.push_back(0);
+        double h = sp.edge_length;
+        for (const core::Label label : {patch.region_in, patch.region_out}) {
+            const auto it = sp.label_edge_length.find(label);
+            if (it != sp.label_edge_length.end()) h = std::min(h, it->second);
+        }
+        nominal_h.push_back(h);
     }
 };
 
@@ -223,21 +247,21 @@ std::vector<std::optional<FrontStall>> mesh_patches(const core::SurfaceNetwork& 
 
 // Stalled patches get finer sizes there or keep their background triangles (RetryPolicy);
 // in the last round the first stall in patch order is the error. Returns whether any stalled.
-bool handle_stalls(const std::vector<std::optional<FrontStall>>& stalls, int round,
-                   RetryPolicy& retry, core::StageContext& ctx) {
+bool handle_stalls(const std::vector<std::optional<FrontStall>>& stalls, const Features& features,
+                   int round, RetryPolicy& retry, core::StageContext& ctx) {
     std::size_t stalled = 0;
     std::string places;
     for (std::size_t p = 0; p < stalls.size(); ++p) {
         if (!stalls[p]) continue;
         if (++stalled <= 4) places.append(" ").append(point_text(stalls[p]->place()));
         if (round + 1 >= RetryPolicy::kRounds) throw *stalls[p];
-        retry.on_stall(p, stalls[p]->place(), round);
+        retry.on_stall(p, features.patches[p].faces.size(), stalls[p]->places(), round);
     }
     if (stalled == 0) return false;
     ctx.warn("remesh: the front stalled in " + std::to_string(stalled) + " patch(es) (near" +
              places +
              "); meshing again with half the size there (a patch stalling twice keeps its "
-             "background triangles)");
+             "background triangles around the places where it stalled)");
     retry.note("the front stalled in " + std::to_string(stalled) + " patch(es)");
     return true;
 }
@@ -474,7 +498,7 @@ bool mesh_round(int round, Rounds& r, RoundResult& result) {
     ctx.count("remesh.patches_meshed_in_last_round",
               double(std::count(dirty.begin(), dirty.end(), 1)));
     const auto stalls = mesh_patches(r.bg, r.features, loops, dirty, r.retry, r.cache, ctx);
-    if (handle_stalls(stalls, round, r.retry, ctx)) return false;
+    if (handle_stalls(stalls, r.features, round, r.retry, ctx)) return false;
     report_patches(r.features, r.cache, r.retry, result.sums, ctx);
 
     ctx.progress(0.6, "assembly");
@@ -508,6 +532,52 @@ bool mesh_round(int round, Rounds& r, RoundResult& result) {
         return false;
     }
     return true;
+}
+
+// The patches of the rounds and what is kept per patch; cut_stalled_patches replaces them.
+struct Patches {
+    Features features;
+    std::vector<std::int32_t> face_part;  // cut_patches' parts per background face
+    std::unique_ptr<RetryPolicy> retry;
+    std::unique_ptr<PatchCache> cache;
+};
+
+// A patch that stalled twice is cut (RetryPolicy::cuts, cut_patches): the features are found
+// again with the parts, and the policy and cache carry over to the patches with the same
+// faces. Each cut moves faces into a new part, and cuts happen only in rounds (bounded by
+// RetryPolicy::kRounds), so the features are found at most kRounds times.
+void cut_stalled_patches(const core::SurfaceNetwork& bg, const RemeshParams& params,
+                         const SizeField& size, const SizeFieldParams& sp, Patches& patches,
+                         core::StageContext& ctx) {
+    const auto& cuts = patches.retry->cuts();
+    std::string places;
+    std::size_t count = 0;
+    for (const auto& cut : cuts)
+        for (const Eigen::Vector3d& x : cut.places)
+            if (++count <= 4) places.append(" ").append(point_text(x));
+    const std::int32_t first_new = cut_patches(bg, patches.features, size, cuts, patches.face_part);
+    Features cut = find_features(bg, params.feature_angle_deg, ctx, patches.face_part);
+    std::vector<std::int32_t> old_of_new(cut.patches.size(), -1);
+    std::vector<std::uint8_t> is_cut(cut.patches.size(), 0);
+    for (std::size_t q = 0; q < cut.patches.size(); ++q) {
+        const std::int32_t f0 = cut.patches[q].faces.front();
+        if (patches.face_part[std::size_t(f0)] >= first_new) {
+            is_cut[q] = 1;
+            continue;
+        }
+        const std::int32_t p = patches.features.face_patch[std::size_t(f0)];
+        if (patches.features.patches[std::size_t(p)].faces == cut.patches[q].faces)
+            old_of_new[q] = p;
+    }
+    ctx.add("remesh.stall_cuts", double(cuts.size()));
+    ctx.warn("remesh: the front stalled twice in " + std::to_string(cuts.size()) +
+             " patch(es); the background around " + std::to_string(count) + " place(s) (near" +
+             places + ") keeps its triangles, cut out of the patch, and the rest is meshed again");
+    patches.retry->note("cuts around " + std::to_string(count) + " stall place(s)");
+    patches.retry = std::make_unique<RetryPolicy>(std::move(*patches.retry), old_of_new, is_cut);
+    patches.cache =
+        std::make_unique<PatchCache>(std::move(*patches.cache), old_of_new, bg, cut, sp);
+    patches.features = std::move(cut);
 }
 
 // The last resort when the last round still fails (`why`): the background itself, which is
@@ -559,8 +629,6 @@ RemeshResult remesh(const core::SurfaceNetwork& bg, const RemeshParams& params,
     // §2: "geometrical features are extracted from the background mesh".
     StepClock clock(ctx);
     ctx.progress(0.0, "features");
-    const Features features = find_features(bg, params.feature_angle_deg, ctx);
-    clock.lap("features");
 
     // The target size h over the background: remesh.edge_length (resolved), then the field.
     ctx.progress(0.05, "size field");
@@ -568,19 +636,25 @@ RemeshResult remesh(const core::SurfaceNetwork& bg, const RemeshParams& params,
     const SizeField size = build_size_field(bg, sp, ctx);
     clock.lap("size_field");
     ctx.count("remesh.edge_length_mm", sp.edge_length);
-    ctx.info("remesh: h = " + std::to_string(sp.edge_length) + " mm, " +
-             std::to_string(features.patches.size()) + " patches, " +
-             std::to_string(features.curves.size()) + " curves");
 
-    // Rounds: meshed again finer where a round fails (bounded by RetryPolicy::kRounds; the
-    // last round reports what still fails).
-    RetryPolicy retry(bg, size, features.patches.size());
-    PatchCache cache(bg, features, sp);
-    Rounds rounds{bg, params, features, retry, cache, clock, ctx};
+    // Rounds: meshed again finer where a round fails, or with the places where a patch
+    // stalled twice cut out of it (bounded by RetryPolicy::kRounds, cuts included; the last
+    // round reports what still fails).
+    Patches patches{find_features(bg, params.feature_angle_deg, ctx), {}, nullptr, nullptr};
+    patches.retry = std::make_unique<RetryPolicy>(bg, size, patches.features.patches.size());
+    patches.cache = std::make_unique<PatchCache>(bg, patches.features, sp);
+    clock.lap("features");
+    ctx.info("remesh: h = " + std::to_string(sp.edge_length) + " mm, " +
+             std::to_string(patches.features.patches.size()) + " patches, " +
+             std::to_string(patches.features.curves.size()) + " curves");
     RoundResult last;
     for (int round = 0; round + 1 < RetryPolicy::kRounds; ++round) {
         ctx.check_cancelled();
-        if (mesh_round(round, rounds, last)) {
+        Rounds rounds{bg, params, patches.features, *patches.retry, *patches.cache, clock, ctx};
+        const bool done = mesh_round(round, rounds, last);
+        if (!done && !patches.retry->cuts().empty())
+            cut_stalled_patches(bg, params, size, sp, patches, ctx);
+        if (done) {
             for (const auto& [name, value] : last.sums) ctx.add(name, value);
             preserve_volumes(bg, params, sp.edge_length, last.out, ctx);
             clock.lap("checks");
@@ -589,6 +663,7 @@ RemeshResult remesh(const core::SurfaceNetwork& bg, const RemeshParams& params,
         }
     }
     ctx.check_cancelled();
+    Rounds rounds{bg, params, patches.features, *patches.retry, *patches.cache, clock, ctx};
     try {
         mesh_round(RetryPolicy::kRounds - 1, rounds, last);  // the last: it stands or throws
     } catch (const core::GeometryError& e) {

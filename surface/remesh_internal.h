@@ -18,6 +18,7 @@
 #include <cstdint>
 #include <functional>
 #include <map>
+#include <memory>
 #include <string>
 #include <utility>
 #include <vector>
@@ -64,7 +65,7 @@ std::string point_text(const Eigen::Vector3d& p);
 /// - within one round, triangulate_patch scales a patch by 0.85 per failed attempt
 ///   (FrontParams::attempts) on top.
 /// A patch whose front stalls twice, or whose faces cross in three rounds, or that does
-/// either in the second-to-last round or later, keeps its background triangles from then on
+/// either in a late round (late()), keeps its background triangles from then on
 /// (copy()): the last round then changes no size, so it meets no new stall.
 /// Work of a stalling patch (issue 20): it is meshed by the front in at most 2 rounds where
 /// it stalls (then copy()), each of FrontParams::attempts attempts bounded by O(n) steps,
@@ -74,7 +75,16 @@ std::string point_text(const Eigen::Vector3d& p);
 class RetryPolicy {
 public:
     /// Rounds at most: the last one reports what still fails instead of retrying.
-    static constexpr int kRounds = 10;
+    static constexpr int kRounds = 14;
+    /// The rounds before the last in which a stall or crossing keeps the patch's background
+    /// triangles at once (late()). A patch copied so changes the curves it shares (they take
+    /// the background's points) and so its neighbours' loops: they are meshed again in the
+    /// next round and may stall there in turn (natbrainlab: a neighbour stalled in the last
+    /// round and the whole background was used). Each late round copies what stalls in it,
+    /// so the copied set grows until a round stands; five such rounds settle every atlas
+    /// and torture case seen. The first kRounds - kLateRounds - 1 = 8 rounds refine.
+    static constexpr int kLateRounds = 5;
+    static constexpr bool late(int round) { return round + 1 + kLateRounds >= kRounds; }
 
     RetryPolicy(const core::SurfaceNetwork& background, const SizeField& field,
                 std::size_t patches);
@@ -98,17 +108,40 @@ public:
     /// The sizes of this round are in use: has_new_sizes() compares with them from now on.
     void mark_sizes_used();
 
-    /// The front of patch p stalled at `place` in round `round` (0-based): a shrink site
-    /// there, or, at its second stall or from the second-to-last round on, the patch keeps
-    /// its background triangles.
-    void on_stall(std::size_t p, const Eigen::Vector3d& place, int round);
+    /// The front of patch p stalled in round `round` (0-based), its attempts at `places`
+    /// (the last attempt's last): at its first stall, a shrink site at each place. At
+    /// its second stall (or its first at kCutAtOnce places or more), a patch of at least
+    /// kMinCutFaces faces is cut (cuts()): the
+    /// background around every place becomes a patch of its own that keeps its background
+    /// triangles, and the rest is meshed by the front again; a smaller patch, or any patch
+    /// in a late round or once frugal, keeps its background triangles.
+    static constexpr std::size_t kMinCutFaces = 64;
+    /// A stall at this many places or more is cut at once, at the first stall.
+    static constexpr std::size_t kCutAtOnce = 8;
+    void on_stall(std::size_t p, std::size_t patch_faces,
+                  const std::vector<Eigen::Vector3d>& places, int round);
+    /// Patches to cut around the places where they stalled (issue 20: a local fallback
+    /// instead of a whole patch of background triangles); cleared by the policy of the cut
+    /// features (the constructor below).
+    struct Cut {
+        std::size_t patch;
+        std::vector<Eigen::Vector3d> places;
+    };
+    const std::vector<Cut>& cuts() const { return cuts_; }
+    /// The policy carried over to the features after cuts(): `old_of_new` is, per new patch,
+    /// the old patch with the same faces or -1; `is_cut` marks the new patches cut out around
+    /// a stall (they keep their background triangles). A patch that is neither is the rest
+    /// of a cut patch: it counts one stall, so that it is cut again at its next one. Sizes,
+    /// sites, work and the round's triggers carry over.
+    RetryPolicy(RetryPolicy&& old, const std::vector<std::int32_t>& old_of_new,
+                const std::vector<std::uint8_t>& is_cut);
     /// Edges of a region that is not a closed 2-manifold (two patches joined the same two
     /// curve points by an inner edge): a shrink site at each midpoint.
     void on_open_edges(const std::vector<Eigen::Vector3d>& midpoints);
     /// Faces of `out` that are wrong after smoothing (`face_patch` of the output): faces of
     /// intersecting pairs, or of a boundary part turned inside out. Patches found so in a
     /// third round keep their background triangles, the other faces get a shrink site at
-    /// their centroid. From the second-to-last round (`round`, 0-based) on, every such patch
+    /// their centroid. In a late round (`round`, 0-based), every such patch
     /// keeps its background triangles (which are right: the background is checked).
     void on_bad_faces(const std::vector<std::int32_t>& faces, const core::SurfaceNetwork& out,
                       const std::vector<std::int32_t>& face_patch, int round);
@@ -130,7 +163,7 @@ public:
     /// at the sizes in force (the O(n) of front_triangulate.cpp). Once the rounds together
     /// have spent kWorkBudget times the first round's, the policy turns frugal: every later
     /// stall or crossing keeps that patch's background triangles at once, as from the
-    /// second-to-last round, and a volume change is reported, not meshed again. The stage's
+    /// late rounds, and a volume change is reported, not meshed again. The stage's
     /// work is then at most (kWorkBudget + 64) times the first round's, 64 = 1 / (1/8)^2
     /// for the round that crosses the budget. Returns true when this call turned it frugal.
     static constexpr double kWorkBudget = 8.0;
@@ -156,16 +189,34 @@ private:
         int generation;  // mark_sizes_used() calls before it was added: its round
     };
     std::vector<ShrinkSite> shrink_sites_;  // in increasing generation
-    std::size_t sites_used_ = 0;            // sites in force when the patches were last meshed
-    int generation_ = 0;                    // mark_sizes_used() calls so far
+    // Each site's reach (centre +- 2 r) by site index: shrink() visits only the sites that
+    // reach x (a stall may add a hundred sites, and the front asks for sizes at every step).
+    std::unique_ptr<core::Adt> site_reach_;
+    std::size_t sites_used_ = 0;  // sites in force when the patches were last meshed
+    int generation_ = 0;          // mark_sizes_used() calls so far
     std::vector<double> face_scale_, vertex_scale_;  // volume scales
     std::vector<std::uint8_t> rescaled_;             // per patch, since mark_sizes_used()
     std::vector<int> patch_stalls_, patch_crossings_;
     std::vector<std::uint8_t> copy_patch_;
+    std::vector<Cut> cuts_;
     double first_work_ = 0.0, work_ = 0.0;  // expected triangles: the first round's, all
     bool frugal_ = false;
     std::string triggers_;  // noted since the last round_summary()
 };
+
+// --- cuts around stalls (remesh_cuts.cpp) -------------------------------------------------
+
+/// Cuts the stalled patches of `cuts` (RetryPolicy::cuts()) into parts (issue 20 item 2: a
+/// local fallback). Around each place, the faces of the patch whose centroids lie within
+/// 4 h of it (h: the size field there), grown across the patch's edges from the face nearest
+/// the place, join that cut's new part; notches (a face with two of its neighbours in the
+/// part) and pieces of the rest smaller than the part are added to it, and a part that
+/// would take half of its patch takes all of it. `face_part` (per background face, created
+/// with 0 when empty) gets the new part ids, each larger than every id before. Returns the
+/// first new id. Cost O(patch faces x places) per cut.
+std::int32_t cut_patches(const core::SurfaceNetwork& bg, const Features& features,
+                         const SizeField& field, const std::vector<RetryPolicy::Cut>& cuts,
+                         std::vector<std::int32_t>& face_part);
 
 // --- curves and loops (remesh_curves.cpp) --------------------------------------------------
 

@@ -19,12 +19,22 @@ RetryPolicy::RetryPolicy(const core::SurfaceNetwork& background, const SizeField
       rescaled_(patches, 0),
       patch_stalls_(patches, 0),
       patch_crossings_(patches, 0),
-      copy_patch_(patches, 0) {}
+      copy_patch_(patches, 0) {
+    core::AdtBox domain = core::AdtBox::of_point(background.point(0));
+    for (std::size_t v = 1; v < background.vertex_count(); ++v)
+        domain.extend(background.point(static_cast<std::int32_t>(v)));
+    site_reach_ = std::make_unique<core::Adt>(domain, core::AdtItems::boxes);
+}
 
 double RetryPolicy::shrink(const Eigen::Vector3d& x) const {
     double scale = 1.0, round_factor = 1.0;
     int generation = -1;
-    for (const ShrinkSite& site : shrink_sites_) {
+    // The sites that reach x, in increasing index and so in increasing generation; a site
+    // that does not reach x gives a factor of 1.
+    thread_local std::vector<std::int32_t> reach;
+    site_reach_->query_box(core::AdtBox::of_point(x), reach);
+    for (const std::int32_t k : reach) {
+        const ShrinkSite& site = shrink_sites_[std::size_t(k)];
         if (site.generation != generation) {  // a new round's sites: the last round's factor
             scale *= round_factor;
             round_factor = 1.0;
@@ -80,17 +90,57 @@ bool RetryPolicy::spend(double expected_triangles) {
 }
 
 void RetryPolicy::add_shrink_site(const Eigen::Vector3d& centre, double radius_in_h) {
-    shrink_sites_.push_back({centre, radius_in_h * field_.at(centre, -1), generation_});
+    const double r = radius_in_h * field_.at(centre, -1);
+    site_reach_->insert(static_cast<std::int32_t>(shrink_sites_.size()),
+                        core::AdtBox::of_point(centre).enlarged(2.0 * r));
+    shrink_sites_.push_back({centre, r, generation_});
 }
 
-void RetryPolicy::on_stall(std::size_t p, const Eigen::Vector3d& place, int round) {
-    // From the second-to-last round on, a finer size has no round left to prove itself: the
-    // patch keeps its background triangles at once, so the last round cannot stall there.
-    if (++patch_stalls_[p] >= 2 || round + 2 >= kRounds || frugal_) {
-        copy_patch_[p] = 1;
+RetryPolicy::RetryPolicy(RetryPolicy&& old, const std::vector<std::int32_t>& old_of_new,
+                         const std::vector<std::uint8_t>& is_cut)
+    : RetryPolicy(std::move(old)) {
+    const std::size_t np = old_of_new.size();
+    std::vector<std::uint8_t> rescaled(np, 0), copy(np, 0);
+    std::vector<int> stalls(np, 0), crossings(np, 0);
+    for (std::size_t q = 0; q < np; ++q) {
+        const std::int32_t p = old_of_new[q];
+        if (p >= 0) {
+            rescaled[q] = rescaled_[std::size_t(p)];
+            copy[q] = copy_patch_[std::size_t(p)];
+            stalls[q] = patch_stalls_[std::size_t(p)];
+            crossings[q] = patch_crossings_[std::size_t(p)];
+        } else if (is_cut[q]) {
+            copy[q] = 1;
+        } else {
+            rescaled[q] = 1;  // its loops are new: it is meshed again anyway
+            stalls[q] = 1;
+        }
+    }
+    rescaled_ = std::move(rescaled);
+    copy_patch_ = std::move(copy);
+    patch_stalls_ = std::move(stalls);
+    patch_crossings_ = std::move(crossings);
+    cuts_.clear();
+}
+
+void RetryPolicy::on_stall(std::size_t p, std::size_t patch_faces,
+                           const std::vector<Eigen::Vector3d>& places, int round) {
+    // In a late round, a finer size has no round left to prove itself: the patch keeps its
+    // background triangles at once, so the last round cannot stall there.
+    // A cut is made only before that: its rest is meshed in the next round, and a stall of
+    // the rest there is still a second stall that is cut or copied, never the error.
+    const bool no_retry = late(round) || frugal_;
+    // Many places at once (a noisy thresholded head: fins of skin every few cm) are not thin
+    // layers that a finer size mends: they are cut at the first stall.
+    const bool many = places.size() >= kCutAtOnce;
+    if (++patch_stalls_[p] >= 2 || no_retry || (many && patch_faces >= kMinCutFaces)) {
+        if (!no_retry && patch_faces >= kMinCutFaces)
+            cuts_.push_back({p, places});
+        else
+            copy_patch_[p] = 1;
         return;
     }
-    add_shrink_site(place, 4.0);
+    for (const Eigen::Vector3d& place : places) add_shrink_site(place, 4.0);
 }
 
 void RetryPolicy::on_open_edges(const std::vector<Eigen::Vector3d>& midpoints) {
@@ -102,10 +152,10 @@ void RetryPolicy::on_bad_faces(const std::vector<std::int32_t>& faces,
                                const std::vector<std::int32_t>& face_patch, int round) {
     std::set<std::int32_t> bad;
     for (const std::int32_t face : faces) bad.insert(face_patch[std::size_t(face)]);
-    // As for stalls: from the second-to-last round on, finer sizes would be tried in the last
+    // As for stalls: in a late round, finer sizes would be tried in the last
     // round, where a stall they cause is the error; the bad patches are copied instead.
     for (const std::int32_t q : bad)
-        if (++patch_crossings_[std::size_t(q)] >= 3 || round + 2 >= kRounds || frugal_)
+        if (++patch_crossings_[std::size_t(q)] >= 3 || late(round) || frugal_)
             copy_patch_[std::size_t(q)] = 1;
     for (const std::int32_t face : faces) {
         if (copy_patch_[std::size_t(face_patch[std::size_t(face)])]) continue;

@@ -418,7 +418,9 @@ TEST_CASE("a stalled front is handed to the diagnostics sink", "[front]") {
     core::StageContext ctx({}, {}, [&](core::Diagnostic d) { received.push_back(std::move(d)); });
     CHECK_THROWS_AS(surface::triangulate_patch(patch, {loop}, uniform(h), params, ctx),
                     surface::FrontStall);
-    REQUIRE(received.size() == 1);
+    // Every edge is stuck: the front gives up at several places, the first four diagnosed.
+    REQUIRE(!received.empty());
+    CHECK(received.size() <= 4);
     const core::Diagnostic& d = received.front();
     CHECK(!d.name.empty());
     CHECK(d.name.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ"

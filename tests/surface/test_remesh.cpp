@@ -224,7 +224,7 @@ TEST_CASE("the retry policy owns every size multiplier of the rounds", "[remesh]
 
     // A first stall: a shrink site of radius 4 h = 8 mm: 1/2 within it, 1 beyond 16 mm.
     const Eigen::Vector3d place(10, 10, 0);
-    retry.on_stall(0, place, 0);
+    retry.on_stall(0, 2, {place}, 0);
     CHECK(!retry.copy(0));
     CHECK(retry.shrink(place) == 0.5);
     CHECK(retry.shrink(place + Eigen::Vector3d(12, 0, 0)) == Approx(0.75));
@@ -242,18 +242,40 @@ TEST_CASE("the retry policy owns every size multiplier of the rounds", "[remesh]
         retry.on_open_edges({place, place});
     }
     CHECK(retry.shrink(place) == 0.125);
-    // A second stall of the same patch: it keeps its background triangles, no new site.
+    // A second stall of the same (small) patch: it keeps its background triangles, no new
+    // site.
     retry.mark_sizes_used();
-    retry.on_stall(0, far, 1);
+    retry.on_stall(0, 2, {far}, 1);
     CHECK(retry.copy(0));
     CHECK(!retry.has_new_sizes(0, whole));
-    // In the second-to-last round a first stall copies the patch at once: the last round
-    // must not stall there.
-    surface::remesh_detail::RetryPolicy late(bg, field, 1);
-    late.on_stall(0, place, surface::remesh_detail::RetryPolicy::kRounds - 2);
+    CHECK(retry.cuts().empty());
+    // A patch of kMinCutFaces faces or more is cut around the places instead.
+    using surface::remesh_detail::RetryPolicy;
+    RetryPolicy big(bg, field, 1);
+    big.on_stall(0, RetryPolicy::kMinCutFaces, {place}, 0);
+    big.on_stall(0, RetryPolicy::kMinCutFaces, {place, far}, 1);
+    CHECK(!big.copy(0));
+    REQUIRE(big.cuts().size() == 1);
+    CHECK(big.cuts()[0].places.size() == 2);
+    // The policy of the cut features: the cut part keeps its background triangles, the rest
+    // counts one stall (its next one is a second), sizes carry over.
+    RetryPolicy after(std::move(big), {-1, -1}, {1, 0});
+    CHECK(after.cuts().empty());
+    CHECK(after.copy(0));
+    CHECK(!after.copy(1));
+    CHECK(after.shrink(place) == 0.5);
+    after.on_stall(1, RetryPolicy::kMinCutFaces, {far}, 2);
+    CHECK(after.cuts().size() == 1);
+    // In a late round a first stall copies the patch at once, large or not: the last round
+    // must not stall there. The rounds before are not late.
+    CHECK(!RetryPolicy::late(RetryPolicy::kRounds - RetryPolicy::kLateRounds - 2));
+    CHECK(RetryPolicy::late(RetryPolicy::kRounds - RetryPolicy::kLateRounds - 1));
+    RetryPolicy late(bg, field, 1);
+    late.on_stall(0, RetryPolicy::kMinCutFaces, {place}, RetryPolicy::kRounds - 2);
     CHECK(late.copy(0));
-    surface::remesh_detail::RetryPolicy crossed(bg, field, 1);
-    crossed.on_bad_faces({0, 1}, bg, {0, 0}, surface::remesh_detail::RetryPolicy::kRounds - 2);
+    CHECK(late.cuts().empty());
+    RetryPolicy crossed(bg, field, 1);
+    crossed.on_bad_faces({0, 1}, bg, {0, 0}, RetryPolicy::kRounds - 2);
     CHECK(crossed.copy(0));
 
     // A region that lost 20% of its volume against a 10% limit: x 0.9 sqrt(1/2); a change
@@ -269,4 +291,48 @@ TEST_CASE("the retry policy owns every size multiplier of the rounds", "[remesh]
     CHECK(retry.size(far, 1) == Approx(2.0 * factor * 0.5));
     CHECK(retry.size(far, -1) == 2.0);  // no face: no volume scale
     CHECK(retry.round_summary(1).find("round 2") != std::string::npos);
+}
+
+TEST_CASE("a patch is cut around the places where its front stalled", "[remesh]") {
+    // A flat 30 x 30 mm sheet of 1 mm squares, one patch of one region.
+    core::SurfaceNetwork bg;
+    constexpr int n = 30;
+    for (int j = 0; j <= n; ++j)
+        for (int i = 0; i <= n; ++i) bg.add_vertex(Eigen::Vector3d(i, j, 0));
+    auto id = [](int i, int j) { return j * (n + 1) + i; };
+    for (int j = 0; j < n; ++j)
+        for (int i = 0; i < n; ++i) {
+            bg.add_face(id(i, j), id(i + 1, j), id(i + 1, j + 1), 1, 0);
+            bg.add_face(id(i, j), id(i + 1, j + 1), id(i, j + 1), 1, 0);
+        }
+    core::StageContext ctx;
+    const surface::Features features = surface::find_features(bg, 0.0, ctx);
+    REQUIRE(features.patches.size() == 1);
+    const surface::SizeField field(bg, std::vector<double>(bg.vertex_count(), 1.0));
+    std::vector<std::int32_t> face_part;
+    const Eigen::Vector3d place(15, 15, 0);
+    const std::int32_t first =
+        surface::remesh_detail::cut_patches(bg, features, field, {{0, {place}}}, face_part);
+    CHECK(first == 1);
+    // The faces within 4 h = 4 mm of the place, and no face beyond 4 mm plus a notch.
+    std::size_t in_part = 0;
+    for (std::size_t f = 0; f < bg.face_count(); ++f) {
+        const auto& t = bg.faces[f];
+        const Eigen::Vector3d c = (bg.point(t[0]) + bg.point(t[1]) + bg.point(t[2])) / 3.0;
+        if ((c - place).norm() <= 4.0) CHECK(face_part[f] == 1);
+        if ((c - place).norm() > 6.0) CHECK(face_part[f] == 0);
+        in_part += face_part[f] == 1;
+    }
+    CHECK(in_part > 80);
+    // The features of the parts: the disk, and the rest with the disk's boundary as a loop.
+    const surface::Features cut = surface::find_features(bg, 0.0, ctx, face_part);
+    REQUIRE(cut.patches.size() == 2);
+    std::size_t loops = 0;
+    for (const auto& p : cut.patches) loops += p.loops.size();
+    CHECK(loops == 3);  // the disk's boundary twice, the sheet's outer boundary once
+    // A place whose disk would take half of the patch takes all of it.
+    const surface::SizeField coarse(bg, std::vector<double>(bg.vertex_count(), 3.5));
+    std::vector<std::int32_t> all;
+    surface::remesh_detail::cut_patches(bg, features, coarse, {{0, {place}}}, all);
+    CHECK(std::count(all.begin(), all.end(), 1) == std::int64_t(bg.face_count()));
 }
