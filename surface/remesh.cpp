@@ -195,9 +195,14 @@ std::string format_ratio(double r) {
     return s.str();
 }
 
+// A copied patch with loops: its edges shorter than this times the longest edge at their
+// ends collapse (coarsen_patch, light).
+constexpr double kCopyCollapseBelow = 0.3;
+
 // §2: the advancing front applied directly in 3-D on each patch (TBB-parallel over patches,
 // each with a child context). A patch whose front stalls is recorded (patch order decides
 // which error is reported, so the result does not depend on the threads).
+
 std::vector<std::optional<FrontStall>> mesh_patches(const core::SurfaceNetwork& bg,
                                                     const Features& features,
                                                     const PatchLoops& loops,
@@ -218,9 +223,13 @@ std::vector<std::optional<FrontStall>> mesh_patches(const core::SurfaceNetwork& 
                 const Patch& patch = features.patches[p];
                 if (retry.copy(p) && !patch.loops.empty()) {
                     // Bounded by curves, it lies beside other patches, often across a thin
-                    // layer: its background triangles stay as they are (a coarsened or split
-                    // copy crossed its neighbours after smoothing, torture seed 24).
-                    cache.meshes[p] = copy_background_patch(bg, patch, loops.bg[p]);
+                    // layer: its background triangles stay (a coarsened or split copy crossed
+                    // its neighbours after smoothing, torture seed 24) but for the needles of
+                    // a marching-cubes background, whose short edges collapse.
+                    cache.meshes[p] = coarsen_patch(
+                        cache.patches[p],
+                        copy_background_patch(bg, patch, loops.bg[p], loops.merged[p]),
+                        loops.bg[p].size(), size_function, kCopyCollapseBelow);
                 } else if (retry.copy(p)) {
                     cache.meshes[p] = coarsen_patch(
                         cache.patches[p], copy_background_patch(bg, patch, {}), 0, size_function);

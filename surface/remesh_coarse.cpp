@@ -35,6 +35,11 @@ constexpr double kMaxDeviation = 0.1;
 constexpr double kMaxVolumeChange = 0.02;
 // Edges longer than this times h are split first; no collapse makes one.
 constexpr double kSplitAbove = 4.0 / 3.0;
+// Light: a collapse may make the worst angle at u this much smaller (each collapse removes a
+// point, so a cluster of needles shrinks to one point; the smoothing after mends the angles).
+constexpr double kLightKeepAngle = 0.5;
+// A face with a smaller angle than this (degrees) is a needle: its normal is noise.
+constexpr double kNeedleDeg = 1.0;
 // A collapse may not leave the kept point with more neighbours than this.
 constexpr std::size_t kMaxValence = 12;
 
@@ -47,9 +52,10 @@ double signed_volume6(const Eigen::Vector3d& o, const Eigen::Vector3d& a, const 
 class Coarsener {
 public:
     Coarsener(const BackgroundPatch& patch, PatchMesh mesh, std::size_t fixed,
-              const SizeFunction& size)
+              const SizeFunction& size, double collapse_below)
         : patch_(patch),
           size_(size),
+          collapse_below_(collapse_below),
           mesh_(std::move(mesh)),
           fixed_(fixed),
           boxes_(domain(mesh_), core::AdtItems::boxes) {
@@ -81,7 +87,7 @@ public:
     // within one ring of the kept point, <= (kMaxValence + 1) * max valence per collapse),
     // and each queue entry is popped once.
     PatchMesh run() {
-        split_long_edges();
+        if (!(collapse_below_ < kSplitAbove)) split_long_edges();
         for (std::size_t f = 0; f < mesh_.faces.size(); ++f)
             for (int k = 0; k < 3; ++k)
                 push(mesh_.faces[f][std::size_t(k)], mesh_.faces[f][std::size_t((k + 1) % 3)]);
@@ -208,9 +214,24 @@ private:
         box.extend(x(t[2]));
         return box;
     }
+    // Light: only edges shorter than collapse_below x the longest edge at their ends.
     void push(std::int32_t a, std::int32_t b) {
         if (a > b) std::swap(a, b);
-        queue_.emplace((x(a) - x(b)).norm(), a, b);
+        const double length = (x(a) - x(b)).norm();
+        if (collapse_below_ < kSplitAbove &&
+            !(length < collapse_below_ * std::max(longest_edge_at(a), longest_edge_at(b))))
+            return;
+        queue_.emplace(length, a, b);
+    }
+    double longest_edge_at(std::int32_t v) const {
+        double longest = 0.0;
+        for (const std::int32_t f : point_faces_[std::size_t(v)]) {
+            const auto& t = mesh_.faces[std::size_t(f)];
+            for (int e = 0; e < 3; ++e)
+                longest = std::max(longest,
+                                   (x(t[std::size_t(e)]) - x(t[std::size_t((e + 1) % 3)])).norm());
+        }
+        return longest;
     }
     std::vector<std::int32_t> neighbours(std::int32_t v) const {
         std::vector<std::int32_t> n;
@@ -265,7 +286,10 @@ private:
         if (nu.size() + nv.size() - 4 > kMaxValence) return std::nullopt;
 
         const Eigen::Vector3d& xu = x(u);
-        const double h = size_at(xu, u);
+        // Light (a copied patch beside others): the scale is the longest edge at u, and no
+        // new edge is longer; else h.
+        const bool light = collapse_below_ < kSplitAbove;
+        const double h = light ? longest_edge_at(u) : size_at(xu, u);
         double deviation = std::numeric_limits<double>::infinity();
         plan.min_angle = 180.0;
         for (std::size_t k = 0; k < plan.added.size(); ++k) {
@@ -278,22 +302,31 @@ private:
             std::array<std::int32_t, 3> o = t;
             for (auto& w : o)
                 if (w == v) w = u;
+            // It keeps its side against its old face and the background's smoothed normal;
+            // light, the old face alone decides unless it was a needle (its normal is noise,
+            // and at a marching-cubes corner the smoothed normal is too).
             const Eigen::Vector3d no = (x(o[1]) - x(o[0])).cross(x(o[2]) - x(o[0]));
-            if (n.dot(no) <= 0.2 * nl * no.norm()) return std::nullopt;
+            const bool needle =
+                core::triangle_min_angle_deg(x(o[0]), x(o[1]), x(o[2])) <= kNeedleDeg;
+            if ((!needle || !light) && n.dot(no) <= 0.2 * nl * no.norm()) return std::nullopt;
             const BackgroundPatch::Projection pr =
                 patch_.project((a + b + c) / 3.0, mesh_.point_face[std::size_t(v)]);
-            if (n.dot(patch_.smooth_normal(pr.face)) <= 0.2 * nl) return std::nullopt;
+            if ((needle || !light) && n.dot(patch_.smooth_normal(pr.face)) <= 0.2 * nl)
+                return std::nullopt;
             plan.min_angle = std::min(plan.min_angle, core::triangle_min_angle_deg(a, b, c));
             for (int e = 0; e < 3; ++e) {
                 const Eigen::Vector3d& p = x(t[std::size_t(e)]);
                 const Eigen::Vector3d& q = x(t[std::size_t((e + 1) % 3)]);
-                if ((p - q).norm() > kSplitAbove * size_at(0.5 * (p + q), t[std::size_t(e)]))
+                if ((p - q).norm() >
+                    (light ? (1.0 + collapse_below_) * h
+                           : kSplitAbove * size_at(0.5 * (p + q), t[std::size_t(e)])))
                     return std::nullopt;
             }
             deviation = std::min(deviation, (closest_point_on_triangle(xu, a, b, c) - xu).norm());
         }
         if (plan.added.empty()) return std::nullopt;
-        if (plan.min_angle < std::min(old_angle, kKeepAngleDeg)) return std::nullopt;
+        if (plan.min_angle < (light ? kLightKeepAngle : 1.0) * std::min(old_angle, kKeepAngleDeg))
+            return std::nullopt;
         const double error = old_error + deviation;
         if (error > kMaxDeviation * h) return std::nullopt;
         plan.added_error.assign(plan.added.size(), error);
@@ -376,6 +409,7 @@ private:
 
     const BackgroundPatch& patch_;
     const SizeFunction& size_;
+    double collapse_below_;
     PatchMesh mesh_;
     std::size_t fixed_;
     bool closed_ = false;
@@ -405,9 +439,9 @@ bool is_small_closed_patch(const BackgroundPatch& patch, const SizeFunction& siz
 }
 
 PatchMesh coarsen_patch(const BackgroundPatch& patch, PatchMesh mesh, std::size_t fixed_points,
-                        const SizeFunction& size) {
+                        const SizeFunction& size, double collapse_below) {
     FM_CHECK(fixed_points <= mesh.points.size() && !mesh.faces.empty());
-    return Coarsener(patch, std::move(mesh), fixed_points, size).run();
+    return Coarsener(patch, std::move(mesh), fixed_points, size, collapse_below).run();
 }
 
 }  // namespace frontmesh::surface::remesh_detail

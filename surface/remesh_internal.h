@@ -14,9 +14,11 @@
 // triangulates one patch is surface/front_triangulate.* and the smoothing after it is
 // surface/surface_smoothing.*.
 
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <functional>
+#include <limits>
 #include <map>
 #include <memory>
 #include <string>
@@ -228,6 +230,9 @@ struct DiscreteCurve {
     std::vector<double> s;                ///< arc length on the background polyline, mm
     std::vector<std::int32_t> faces;      ///< a background face at each point
     std::vector<std::int32_t> bg_vertex;  ///< the background vertex at each point, or -1
+    /// A curve at full resolution: background vertices left out of it (a curve edge far
+    /// shorter than h), each with the kept vertex it is merged into in the copied patches.
+    std::vector<std::array<std::int32_t, 2>> merged;
 };
 
 /// Output vertices of the curves, shared by every patch they bound: the corners first, then
@@ -243,6 +248,8 @@ struct PatchLoops {
     std::vector<std::vector<std::int32_t>> ids;  ///< per patch: output ids, loops in order
     std::vector<std::vector<std::int32_t>> bg;   ///< per patch: background vertex or -1
     std::vector<std::vector<PatchLoop>> loops;   ///< per patch: the loops' points
+    /// per patch: the curves' merged background vertices (DiscreteCurve::merged)
+    std::vector<std::vector<std::array<std::int32_t, 2>>> merged;
 };
 PatchLoops patch_loops(const Features& features, const std::vector<DiscreteCurve>& curves,
                        const core::SurfaceNetwork& out);
@@ -254,9 +261,12 @@ std::size_t patches_with_repeated_loop_points(const PatchLoops& loops);
 /// The last resort for a patch whose front stalls again and again: its own background
 /// triangles, its boundary at full resolution (`loop_bg`: the background vertex of each loop
 /// point, in loop order). A closed patch (no loops) is then brought towards h by
-/// coarsen_patch; a small closed shell gets the same without any front.
+/// coarsen_patch; a small closed shell gets the same without any front. `merged` (from
+/// PatchLoops::merged): background vertices left out of the curves, each replaced by the kept
+/// vertex it merges into; faces that lose a corner that way are dropped.
 PatchMesh copy_background_patch(const core::SurfaceNetwork& bg, const Patch& patch,
-                                const std::vector<std::int32_t>& loop_bg);
+                                const std::vector<std::int32_t>& loop_bg,
+                                const std::vector<std::array<std::int32_t, 2>>& merged = {});
 
 // --- coarse patches (remesh_coarse.cpp) ----------------------------------------------------
 
@@ -277,9 +287,12 @@ bool is_small_closed_patch(const BackgroundPatch& patch, const SizeFunction& siz
 /// edge exceeds 4/3 h, every removed point stays within 0.1 h of the faces that replace it
 /// and a closed patch keeps its enclosed volume within 2%. Every point lies on the
 /// background. Ends after at most points - 4 collapses; cost O(faces log faces) for bounded
-/// valence.
+/// valence. With `collapse_below` under 4/3 (a copied patch beside others, whose shape must
+/// not change), no edge is split and only edges shorter than collapse_below h collapse: the
+/// needles of the background go, nothing else changes.
 PatchMesh coarsen_patch(const BackgroundPatch& patch, PatchMesh mesh, std::size_t fixed_points,
-                        const SizeFunction& size);
+                        const SizeFunction& size,
+                        double collapse_below = std::numeric_limits<double>::infinity());
 
 // --- checks (remesh_checks.cpp) ------------------------------------------------------------
 

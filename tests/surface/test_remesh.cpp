@@ -9,6 +9,7 @@
 
 #include "pipeline/core/error.h"
 #include "pipeline/core/label_image.h"
+#include "pipeline/core/quality.h"
 #include "pipeline/core/self_intersection.h"
 #include "surface/extract.h"
 #include "surface/features.h"
@@ -335,4 +336,57 @@ TEST_CASE("a patch is cut around the places where its front stalled", "[remesh]"
     std::vector<std::int32_t> all;
     surface::remesh_detail::cut_patches(bg, features, coarse, {{0, {place}}}, all);
     CHECK(std::count(all.begin(), all.end(), 1) == std::int64_t(bg.face_count()));
+}
+
+TEST_CASE("a copied patch loses its needles and keeps its boundary (coarsen_patch, light)",
+          "[remesh]") {
+    // A flat 10 x 10 mm sheet of 1 mm squares whose vertex (5, 5) sits 0.05 mm from (6, 5):
+    // two needles, as marching cubes leaves them at a voxel corner.
+    core::SurfaceNetwork bg;
+    constexpr int n = 10;
+    for (int j = 0; j <= n; ++j)
+        for (int i = 0; i <= n; ++i)
+            bg.add_vertex(i == 5 && j == 5 ? Eigen::Vector3d(5.95, 5, 0)
+                                           : Eigen::Vector3d(i, j, 0));
+    auto id = [](int i, int j) { return j * (n + 1) + i; };
+    for (int j = 0; j < n; ++j)
+        for (int i = 0; i < n; ++i) {
+            bg.add_face(id(i, j), id(i + 1, j), id(i + 1, j + 1), 1, 0);
+            bg.add_face(id(i, j), id(i + 1, j + 1), id(i, j + 1), 1, 0);
+        }
+    std::vector<std::int32_t> all(bg.face_count());
+    for (std::size_t f = 0; f < all.size(); ++f) all[f] = std::int32_t(f);
+    const surface::BackgroundPatch patch(bg, all, false);
+    // The patch mesh: boundary points first (fixed), then the inner ones.
+    surface::PatchMesh mesh;
+    std::vector<std::int32_t> at(bg.vertex_count(), -1);
+    for (const bool boundary : {true, false})
+        for (int j = 0; j <= n; ++j)
+            for (int i = 0; i <= n; ++i)
+                if ((i == 0 || j == 0 || i == n || j == n) == boundary) {
+                    at[std::size_t(id(i, j))] = std::int32_t(mesh.points.size());
+                    mesh.points.push_back(bg.point(id(i, j)));
+                    mesh.point_face.push_back(0);
+                }
+    for (const auto& t : bg.faces)
+        mesh.faces.push_back({at[std::size_t(t[0])], at[std::size_t(t[1])], at[std::size_t(t[2])]});
+    const std::size_t fixed = 4 * n;
+    auto worst_angle = [](const surface::PatchMesh& m) {
+        double worst = 180.0;
+        for (const auto& t : m.faces)
+            worst = std::min(worst, core::triangle_min_angle_deg(m.points[std::size_t(t[0])],
+                                                                 m.points[std::size_t(t[1])],
+                                                                 m.points[std::size_t(t[2])]));
+        return worst;
+    };
+    REQUIRE(worst_angle(mesh) < 3.0);
+    // A size far below the squares: the light mode's scale is the mesh's own edges.
+    const surface::SizeFunction size = [](const Eigen::Vector3d&, std::int32_t) { return 0.2; };
+    const surface::PatchMesh out =
+        surface::remesh_detail::coarsen_patch(patch, mesh, fixed, size, 0.3);
+    CHECK(out.faces.size() == mesh.faces.size() - 2);  // one collapse: the needles' edge
+    CHECK(worst_angle(out) > 15.0);  // the squares around the gap, stretched
+    for (std::size_t k = 0; k < fixed; ++k) CHECK(out.points[k] == mesh.points[k]);
+    for (const auto& p : out.points)  // every point a background vertex
+        CHECK(std::find(mesh.points.begin(), mesh.points.end(), p) != mesh.points.end());
 }

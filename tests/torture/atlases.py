@@ -90,6 +90,13 @@ def run_atlas(name, image, template, extra, args):
     row["slowest_stage_s"] = max(s.get("wall_s", 0) for s in stages)
     row["peak_mb"] = max(s.get("peak_rss_mb", 0) for s in stages)
     row["warnings"] = sum(len(s.get("warnings", [])) for s in stages)
+    # Issue 20 item 2: faces that kept their background triangles, and whether remesh fell
+    # back to the whole background; item 6: the remeshed surface's quality.
+    remesh = next((s.get("counters", {}) for s in stages if s.get("name") == "remesh"), {})
+    row["copied_faces"] = int(remesh.get("remesh.faces_copied_from_background", 0))
+    row["fallback"] = int(remesh.get("remesh.fallback_to_background", 0))
+    row["surface_min_angle"] = remesh.get("remesh.min_angle_deg")
+    row["surface_mean_eta"] = remesh.get("remesh.mean_eta")
     js = os.path.join(d, "meshcheck.json")
     q = subprocess.run(["/usr/bin/python3", meshcheck_path(), os.path.join(out, "mesh.vtu"),
                         "--surface", os.path.join(out, "checkpoints", "03-remesh.vtu"),
@@ -110,6 +117,10 @@ def run_atlas(name, image, template, extra, args):
     return row
 
 
+def fmt(value, pattern):
+    return "" if value is None else pattern % value
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--only", help="comma-separated atlas names")
@@ -125,25 +136,27 @@ def main():
     only = set(args.only.split(",")) if args.only else None
     rows = []
     print("| atlas | regions | tets | wall s | slowest stage s | peak MB | skew > 0.8 | "
-          "min dihedral | warnings | result |")
-    print("|---|---|---|---|---|---|---|---|---|---|")
+          "min dihedral | surface min angle | surface mean eta | copied faces | warnings | result |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for name, file, template, extra in CASES:
         if only and name not in only:
             continue
         image = os.path.join(TEMPLATES, file)
         if not os.path.exists(image):
             rows.append({"atlas": name, "skipped": True})
-            print("| %s | | | | | | | | | skipped: %s missing |" % (name, image), flush=True)
+            print("| %s | | | | | | | | | | | | skipped: %s missing |" % (name, image), flush=True)
             continue
         r = run_atlas(name, image, template, extra, args)
         rows.append(r)
         if "regions" in r:
-            print("| %s | %d | %s | %.0f | %.0f | %.0f | %.4f%% | %.2f | %d | %s |" % (
+            copied = "whole background" if r["fallback"] else str(r["copied_faces"])
+            print("| %s | %d | %s | %.0f | %.0f | %.0f | %.4f%% | %.2f | %s | %s | %s | %d | %s |" % (
                 name, r["regions"], r["tets"], r["wall_s"], r["slowest_stage_s"], r["peak_mb"],
-                100 * r["skew_gt_08"], r["min_dihedral"], r["warnings"],
+                100 * r["skew_gt_08"], r["min_dihedral"], fmt(r["surface_min_angle"], "%.2f"),
+                fmt(r["surface_mean_eta"], "%.3f"), copied, r["warnings"],
                 "ok" if r["ok"] else r["error"]), flush=True)
         else:
-            print("| %s | | | | | | | | | FAIL: %s |" % (name, r.get("error")), flush=True)
+            print("| %s | | | | | | | | | | | | FAIL: %s |" % (name, r.get("error")), flush=True)
     if args.json:
         with open(args.json, "w") as f:
             json.dump(rows, f, indent=1)
