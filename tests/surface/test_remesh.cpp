@@ -385,7 +385,7 @@ TEST_CASE("a copied patch loses its needles and keeps its boundary (coarsen_patc
     const surface::PatchMesh out =
         surface::remesh_detail::coarsen_patch(patch, mesh, fixed, size, 0.3);
     CHECK(out.faces.size() == mesh.faces.size() - 2);  // one collapse: the needles' edge
-    CHECK(worst_angle(out) > 15.0);  // the squares around the gap, stretched
+    CHECK(worst_angle(out) > 15.0);                    // the squares around the gap, stretched
     for (std::size_t k = 0; k < fixed; ++k) CHECK(out.points[k] == mesh.points[k]);
     for (const auto& p : out.points)  // every point a background vertex
         CHECK(std::find(mesh.points.begin(), mesh.points.end(), p) != mesh.points.end());
