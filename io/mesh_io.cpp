@@ -49,6 +49,7 @@
 #include <vtkXMLUnstructuredGridWriter.h>
 
 #include "io/atomic_file.h"
+#include "io/format_checks.h"
 #include "pipeline/core/coordinate_range.h"
 #include "pipeline/core/error.h"
 #include "pipeline/core/quality.h"
@@ -368,6 +369,19 @@ void copy_field_strings(vtkDataObject* data, FieldStrings* fields) {
     }
 }
 
+// The cell types of `grid`, one per cell, checked to be there with its connectivity: a
+// damaged compressed block can leave VTK's reader with no connectivity or a short types
+// array and no error (found by fuzz_mesh, issue 21).
+vtkUnsignedCharArray* cell_types(vtkUnstructuredGrid* grid, const std::string& path) {
+    vtkUnsignedCharArray* types = grid->GetCellTypesArray();
+    if (grid->GetCells() == nullptr || types == nullptr ||
+        types->GetNumberOfTuples() < grid->GetNumberOfCells())
+        FM_THROW(InputError, quoted(path) +
+                                 ": its cells were not read (damaged connectivity, "
+                                 "offsets or types)");
+    return types;
+}
+
 SurfaceNetwork surface_from_grid(vtkUnstructuredGrid* grid, const std::string& path) {
     SurfaceNetwork surface;
     copy_points(grid, path, surface.xyz);
@@ -379,7 +393,7 @@ SurfaceNetwork surface_from_grid(vtkUnstructuredGrid* grid, const std::string& p
     surface.region_in.reserve(static_cast<std::size_t>(n_cells));
     surface.region_out.reserve(static_cast<std::size_t>(n_cells));
 
-    vtkUnsignedCharArray* types = grid->GetCellTypesArray();
+    vtkUnsignedCharArray* types = cell_types(grid, path);
     auto it = vtk::TakeSmartPointer(grid->GetCells()->NewIterator());
     for (it->GoToFirstCell(); !it->IsDoneWithTraversal(); it->GoToNextCell()) {
         const vtkIdType cell = it->GetCurrentCellId();
@@ -585,225 +599,6 @@ SurfaceNetwork read_off(const std::string& path) {
     return surface;
 }
 
-// --- PLY pre-check -----------------------------------------------------------------------
-
-// VTK's PLY reader (vtkPLY, Greg Turk's ply.c) trusts the file: it takes words of a line
-// that has fewer than it needs (an element line short of its properties, an empty header
-// line, "element face" without a count) from past the end of its word array, and allocates
-// a list of any count it reads. fuzz_surface crashed it (SIGSEGV in strtol) with one face
-// line "3 0 1". So the header, and the element lines of a text PLY or the byte layout of a
-// binary one, are checked here first; VTK then reads only a file this check accepts.
-class PlyCheck {
-public:
-    PlyCheck(const std::string& path, std::string text) : path_(path), text_(std::move(text)) {}
-
-    void run() {
-        if (next_line().substr(0, 3) != "ply") fail("the first line is not 'ply'");
-        read_header();
-        if (format_ == "ascii")
-            check_text_elements();
-        else
-            check_binary_elements(format_ == "binary_big_endian");
-    }
-
-private:
-    struct Property {
-        std::size_t bytes = 0;        // scalar, or list item
-        std::size_t count_bytes = 0;  // list count; 0 for a scalar
-        bool count_signed = false;
-    };
-    struct Element {
-        std::string name;
-        long long count = 0;
-        std::vector<Property> properties;
-    };
-
-    [[noreturn]] void fail(const std::string& what) const {
-        FM_THROW(InputError, quoted(path_) + ": PLY line " + std::to_string(line_) + ": " + what);
-    }
-
-    // The next line (without '\n'); VTK reads lines of at most 4094 characters and stops a
-    // line at a NUL byte, so both are refused.
-    std::string_view next_line() {
-        if (pos_ >= text_.size()) fail("unexpected end of file");
-        std::size_t end = text_.find('\n', pos_);
-        if (end == std::string::npos) end = text_.size();
-        const std::string_view line = std::string_view(text_).substr(pos_, end - pos_);
-        pos_ = end + 1;
-        ++line_;
-        if (line.size() > 4094) fail("longer than 4094 characters");
-        if (line.find('\0') != std::string_view::npos) fail("holds a NUL byte");
-        // A '\r' of a CRLF file stays in vtkPLY's last word, where atoi and atof ignore it.
-        return line.ends_with('\r') ? line.substr(0, line.size() - 1) : line;
-    }
-
-    // Words as vtkPLY splits them: at spaces and tabs.
-    static std::vector<std::string_view> words(std::string_view line) {
-        std::vector<std::string_view> out;
-        std::size_t i = 0;
-        // Each pass of the outer loop consumes at least one character: bounded by the line.
-        while (i < line.size()) {
-            while (i < line.size() && (line[i] == ' ' || line[i] == '\t')) ++i;
-            const std::size_t start = i;
-            while (i < line.size() && line[i] != ' ' && line[i] != '\t') ++i;
-            if (i > start) out.push_back(line.substr(start, i - start));
-        }
-        return out;
-    }
-
-    static std::size_t type_bytes(std::string_view type, bool* is_signed = nullptr) {
-        static const std::map<std::string_view, std::pair<std::size_t, bool>> types = {
-            {"char", {1, true}},    {"int8", {1, true}},    {"uchar", {1, false}},
-            {"uint8", {1, false}},  {"short", {2, true}},   {"int16", {2, true}},
-            {"ushort", {2, false}}, {"uint16", {2, false}}, {"int", {4, true}},
-            {"int32", {4, true}},   {"uint", {4, false}},   {"uint32", {4, false}},
-            {"float", {4, true}},   {"float32", {4, true}}, {"double", {8, true}},
-            {"float64", {8, true}}};
-        const auto it = types.find(type);
-        if (it == types.end()) return 0;
-        if (is_signed != nullptr) *is_signed = it->second.second;
-        return it->second.first;
-    }
-
-    void read_header() {
-        // Each pass reads one line: bounded by the file's lines.
-        while (true) {
-            const auto w = words(next_line());
-            if (w.empty()) fail("an empty header line");
-            if (w[0] == "end_header") break;
-            if (w[0] == "format") {
-                if (w.size() != 3 || (w[1] != "ascii" && w[1] != "binary_little_endian" &&
-                                      w[1] != "binary_big_endian"))
-                    fail("expected 'format ascii|binary_little_endian|binary_big_endian 1.0'");
-                format_ = std::string(w[1]);
-            } else if (w[0] == "element") {
-                Element e;
-                if (w.size() < 3 || !parse_number(w[2], e.count) || e.count < 0 ||
-                    e.count > std::numeric_limits<std::int32_t>::max())
-                    fail("expected 'element NAME COUNT'");
-                e.name = std::string(w[1]);
-                elements_.push_back(std::move(e));
-            } else if (w[0] == "property") {
-                if (elements_.empty()) fail("a property before any element");
-                Property p;
-                if (w.size() >= 2 && w[1] == "list") {
-                    if (w.size() < 5 || (p.count_bytes = type_bytes(w[2], &p.count_signed)) == 0 ||
-                        (p.bytes = type_bytes(w[3])) == 0)
-                        fail("expected 'property list COUNT_TYPE ITEM_TYPE NAME'");
-                } else if (w.size() < 3 || (p.bytes = type_bytes(w[1])) == 0) {
-                    fail("expected 'property TYPE NAME'");
-                }
-                elements_.back().properties.push_back(p);
-            }
-        }
-        if (format_.empty()) fail("the header has no 'format' line");
-    }
-
-    void check_text_elements() {
-        for (const Element& e : elements_) {
-            // One line per element: bounded by the file's lines (next_line fails at its end).
-            for (long long i = 0; i < e.count; ++i) {
-                const auto w = words(next_line());
-                std::size_t at = 0;
-                for (const Property& p : e.properties) {
-                    long long n = 1;
-                    if (p.count_bytes > 0) {
-                        if (at >= w.size() || !parse_number(w[at], n) || n < 0)
-                            fail(e.name + " " + std::to_string(i) + ": expected a list size");
-                        ++at;
-                    }
-                    if (static_cast<long long>(w.size() - at) < n)
-                        fail(e.name + " " + std::to_string(i) + " has " + std::to_string(w.size()) +
-                             " values; its properties need more");
-                    at += static_cast<std::size_t>(n);
-                }
-            }
-        }
-    }
-
-    void check_binary_elements(bool big_endian) {
-        const std::size_t size = text_.size();
-        std::size_t at = pos_;
-        auto need = [&](std::size_t bytes, const Element& e, long long i) {
-            if (bytes > size || at > size - bytes)
-                fail(e.name + " " + std::to_string(i) + ": the binary data ends early");
-        };
-        for (const Element& e : elements_) {
-            if (e.properties.empty()) continue;
-            // Each element takes at least one byte (need() fails past the end): bounded.
-            for (long long i = 0; i < e.count; ++i)
-                for (const Property& p : e.properties) {
-                    if (p.count_bytes == 0) {
-                        need(p.bytes, e, i);
-                        at += p.bytes;
-                        continue;
-                    }
-                    need(p.count_bytes, e, i);
-                    std::uint64_t raw = 0;
-                    for (std::size_t b = 0; b < p.count_bytes; ++b) {
-                        const auto byte = static_cast<unsigned char>(
-                            text_[at + (big_endian ? b : p.count_bytes - 1 - b)]);
-                        raw = (raw << 8) | byte;
-                    }
-                    at += p.count_bytes;
-                    const std::uint64_t sign_bit = std::uint64_t{1} << (8 * p.count_bytes - 1);
-                    if (p.count_signed && (raw & sign_bit) != 0)
-                        fail(e.name + " " + std::to_string(i) + ": a negative list size");
-                    if (raw > size) fail(e.name + " " + std::to_string(i) + ": a list too long");
-                    need(static_cast<std::size_t>(raw) * p.bytes, e, i);
-                    at += static_cast<std::size_t>(raw) * p.bytes;
-                }
-        }
-    }
-
-    std::string path_;
-    std::string text_;
-    std::size_t pos_ = 0;
-    std::size_t line_ = 0;
-    std::string format_;
-    std::vector<Element> elements_;
-};
-
-void check_ply(const std::string& path) {
-    std::ifstream in(path, std::ios::binary);
-    if (!in) FM_THROW(InputError, quoted(path) + ": cannot open");
-    std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-    if (in.bad()) FM_THROW(InputError, quoted(path) + ": read failed");
-    PlyCheck(path, std::move(text)).run();
-}
-
-// A binary STL (one that VTK reads as binary: a byte outside printable text and white space
-// in its first 256, or no "solid" at the start) must hold the triangles its header counts:
-// VTK allocates that count first (a fuzzed header asked for 15.7 GB).
-void check_stl(const std::string& path) {
-    std::ifstream in(path, std::ios::binary);
-    if (!in) FM_THROW(InputError, quoted(path) + ": cannot open");
-    in.seekg(0, std::ios::end);
-    const auto size = static_cast<std::uint64_t>(in.tellg());
-    in.seekg(0);
-    std::string head(static_cast<std::size_t>(std::min<std::uint64_t>(size, 256)), '\0');
-    in.read(head.data(), static_cast<std::streamsize>(head.size()));
-    const bool text =
-        head.rfind("solid", 0) == 0 && std::all_of(head.begin(), head.end(), [](char c) {
-            const auto u = static_cast<unsigned char>(c);
-            return std::isprint(u) || std::isspace(u);
-        });
-    if (text) return;
-    if (size < 84)
-        FM_THROW(InputError, quoted(path) +
-                                 ": a binary STL needs at least 84 bytes, the file has " +
-                                 std::to_string(size));
-    const auto count = std::uint64_t(static_cast<unsigned char>(head[80])) |
-                       std::uint64_t(static_cast<unsigned char>(head[81])) << 8 |
-                       std::uint64_t(static_cast<unsigned char>(head[82])) << 16 |
-                       std::uint64_t(static_cast<unsigned char>(head[83])) << 24;
-    if (84 + 50 * count > size)
-        FM_THROW(InputError, quoted(path) + ": the binary STL header counts " +
-                                 std::to_string(count) + " triangles (" +
-                                 std::to_string(84 + 50 * count) + " bytes), the file has " +
-                                 std::to_string(size) + " bytes");
-}
-
 std::string lower(std::string s) {
     std::transform(s.begin(), s.end(), s.begin(),
                    [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
@@ -901,10 +696,12 @@ core::SurfaceNetwork read_surface(const std::string& path, FieldStrings* fields)
     const std::string ext = lower(fs::path(path).extension().string());
     SurfaceNetwork surface;
     if (ext == ".vtu") {
+        check_vtk_xml(path);
         auto reader = run_reader<vtkXMLUnstructuredGridReader>(path, "VTK XML unstructured grid");
         surface = surface_from_grid(reader->GetOutput(), path);
         copy_field_strings(reader->GetOutput(), fields);
     } else if (ext == ".vtp") {
+        check_vtk_xml(path);
         auto reader = run_reader<vtkXMLPolyDataReader>(path, "VTK XML polydata");
         surface = surface_from_polydata(reader->GetOutput(), path);
         copy_field_strings(reader->GetOutput(), fields);
@@ -1127,6 +924,7 @@ core::TetMesh read_tet_mesh(const std::string& path, FieldStrings* fields) {
     if (ext != ".vtu")
         FM_THROW(InputError, quoted(path) + ": unknown tetrahedral mesh format '" + ext +
                                  "' (supported: .vtu)");
+    check_vtk_xml(path);
     auto reader = run_reader<vtkXMLUnstructuredGridReader>(path, "VTK XML unstructured grid");
     vtkUnstructuredGrid* grid = reader->GetOutput();
     copy_field_strings(grid, fields);
@@ -1135,7 +933,7 @@ core::TetMesh read_tet_mesh(const std::string& path, FieldStrings* fields) {
     copy_points(grid, path, mesh.xyz);
     core::require_coordinates_in_range(mesh.xyz, quoted(path));
     vtkDataArray* region = region_array(grid, "region", path);
-    vtkUnsignedCharArray* types = grid->GetCellTypesArray();
+    vtkUnsignedCharArray* types = cell_types(grid, path);
     const auto n_nodes = static_cast<vtkIdType>(mesh.node_count());
     auto it = vtk::TakeSmartPointer(grid->GetCells()->NewIterator());
     for (it->GoToFirstCell(); !it->IsDoneWithTraversal(); it->GoToNextCell()) {

@@ -439,12 +439,20 @@ void reject_duplicate_keys(const YAML::Node& node, const std::string& path,
     }
 }
 
+// A mapping key as text. YAML allows any node as a key ("? {a: 1}: x"); a recipe's keys are
+// names (found by fuzz_recipe, issue 21: a mapping key escaped as yaml-cpp's bad conversion).
+std::string key_name(const YAML::Node& key, const std::string& origin) {
+    if (!key.IsScalar())
+        FM_THROW(InputError, origin + ": a key must be a plain name, got " + describe(key));
+    return key.Scalar();
+}
+
 // The recipe file's sections, key by key.
 void apply_sections(const YAML::Node& root, const std::string& path, Recipe& recipe) {
     if (!root.IsMap()) return;
     for (const auto& section : root) {
-        const std::string name = section.first.as<std::string>();
         const std::string origin = origin_of(path, section.first);
+        const std::string name = key_name(section.first, origin);
         if (!section.second.IsMap()) {
             bool known = false;
             for (const auto& spec : key_specs()) known |= spec.path.rfind(name + ".", 0) == 0;
@@ -453,8 +461,8 @@ void apply_sections(const YAML::Node& root, const std::string& path, Recipe& rec
                                      describe(section.second));
         }
         for (const auto& entry : section.second)
-            apply_key(name + "." + entry.first.as<std::string>(), entry.second, recipe,
-                      origin_of(path, entry.first));
+            apply_key(name + "." + key_name(entry.first, origin_of(path, entry.first)),
+                      entry.second, recipe, origin_of(path, entry.first));
     }
 }
 
@@ -521,7 +529,7 @@ Recipe parse_recipe(const std::string& text, const std::string& path,
             const YAML::Node section = root[key.substr(0, dot)];
             if (section.IsMap())
                 for (const auto& entry : section)
-                    if (entry.first.as<std::string>() == key.substr(dot + 1))
+                    if (entry.first.IsScalar() && entry.first.Scalar() == key.substr(dot + 1))
                         return origin_of(path, entry.first);
         }
         return path;

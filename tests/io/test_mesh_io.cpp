@@ -400,9 +400,16 @@ TEST_CASE("read_surface refuses a binary STL shorter than its triangle count", "
     write_text(dir + "/short.stl", stl);
     const std::string msg = input_error_message([&] { io::read_surface(dir + "/short.stl"); });
     CHECK_THAT(msg, Catch::Contains("short.stl") && Catch::Contains("268435456 triangles"));
-    write_text(dir + "/tiny.stl", "abc");
+    write_text(dir + "/tiny.stl", "\x01\x02\x03");
     CHECK_THAT(input_error_message([&] { io::read_surface(dir + "/tiny.stl"); }),
                Catch::Contains("84 bytes"));
+    // Binary as VTK tells them apart: 5% of the first 256 bytes outside text, here form
+    // feeds (white space to isspace(), found by fuzz_surface), even after "solid".
+    std::string feeds = "solid x\n" + std::string(20, '\f') + std::string(52, ' ');  // 80 bytes
+    feeds += std::string("\x00\x00\x00\x10", 4) + std::string(200, ' ');
+    write_text(dir + "/feeds.stl", feeds);
+    CHECK_THAT(input_error_message([&] { io::read_surface(dir + "/feeds.stl"); }),
+               Catch::Contains("268435456 triangles"));
 }
 
 TEST_CASE("read_surface refuses malformed PLY before VTK reads it", "[io]") {
@@ -454,6 +461,69 @@ TEST_CASE("read_surface refuses malformed PLY before VTK reads it", "[io]") {
         write_text(dir + "/huge.ply", binary);
         CHECK_THAT(input_error_message([&] { io::read_surface(dir + "/huge.ply"); }),
                    Catch::Contains("face 0"));
+    }
+    // Found by fuzz_surface (issue 21): VTK built cells from face indices it never checked
+    // (SEGV in vtkCell::Initialize), freed an unset pointer per face when the face element
+    // had no index list, and read a list into a scalar slot.
+    SECTION("a face index beyond the vertices, text and binary") {
+        write_text(dir + "/index.ply", header + "3 0 2 1\n3 0 1 4\n3 0 3 2\n3 1 2 3\n");
+        const std::string msg = input_error_message([&] { io::read_surface(dir + "/index.ply"); });
+        CHECK_THAT(msg, Catch::Contains("face 1") && Catch::Contains("vertex index 4"));
+        std::string binary =
+            "ply\nformat binary_big_endian 1.0\nelement vertex 3\nproperty float x\n"
+            "property float y\nproperty float z\nelement face 1\n"
+            "property list uchar int vertex_indices\nend_header\n";
+        binary += std::string(36, '\0');
+        binary += std::string("\x03\x00\x00\x00\x00\x00\x00\x00\x01\x02\x00\x00\x02", 13);
+        write_text(dir + "/index-binary.ply", binary);
+        CHECK_THAT(input_error_message([&] { io::read_surface(dir + "/index-binary.ply"); }),
+                   Catch::Contains("vertex index 33554434"));
+        binary[binary.size() - 4] = '\xff';  // a negative index
+        write_text(dir + "/negative.ply", binary);
+        CHECK_THAT(input_error_message([&] { io::read_surface(dir + "/negative.ply"); }),
+                   Catch::Contains("vertex index -"));
+    }
+    SECTION("a header VTK would misread") {
+        auto refused = [&](const std::string& name, std::string text, const char* why) {
+            write_text(dir + "/" + name, text);
+            const std::string msg =
+                input_error_message([&] { io::read_surface(dir + "/" + name); });
+            CHECK_THAT(msg, Catch::Contains(name) && Catch::Contains(why));
+        };
+        auto replaced = [&](const std::string& from, const std::string& to) {
+            std::string text = header + faces;
+            text.replace(text.find(from), from.size(), to);
+            return text;
+        };
+        refused("noindices.ply", replaced("property list uchar int vertex_indices", "junk"),
+                "unknown header keyword 'junk'");
+        refused("noindices2.ply",
+                replaced("property list uchar int vertex_indices", "property uchar flags"),
+                "no 'property list ... vertex_indices'");
+        refused("noz.ply", replaced("property float z", "property float w"), "no property 'z'");
+        refused("listx.ply", replaced("property float x", "property list uchar float x"),
+                "'x' is a list");
+        refused("floatindex.ply",
+                replaced("uchar int vertex_indices", "uchar float vertex_indices"), "integer type");
+        refused("twice.ply", replaced("property float y", "property float x"),
+                "a second property 'x'");
+        refused("edgefirst.ply", replaced("element vertex 4", "element edge 0\nelement vertex 4"),
+                "element 'edge': only vertex and face");
+        refused("material.ply", replaced("end_header", "element material 0\nend_header"),
+                "element 'material'");
+        refused("novertex.ply", "ply\nformat ascii 1.0\nend_header\n", "no 'element vertex'");
+        refused("long.ply", replaced("3 0 2 1", "256 " + std::string(256 * 2, '0')),
+                "a list of 256 items");
+    }
+    SECTION("what VTK reads safely still reads") {
+        // vertex_index, and an extra scalar property.
+        std::string text = header + faces;
+        text.replace(text.find("vertex_indices"), 14, "vertex_index");
+        text.replace(text.find("property float z"), 16, "property float z\nproperty uchar red");
+        std::string body = "0 0 0 1\n1 0 0 2\n0 1 0 3\n0 0 1 4\n";
+        text.replace(text.find("0 0 0\n1 0 0\n0 1 0\n0 0 1\n"), 24, body);
+        write_text(dir + "/extras.ply", text);
+        CHECK(io::read_surface(dir + "/extras.ply").face_count() == 4);
     }
 }
 
@@ -797,6 +867,68 @@ TEST_CASE("read_tet_mesh and read_surface refuse a damaged compressed VTU", "[io
     CHECK_THROWS_WITH(frontmesh::io::read_tet_mesh(path), Catch::Contains("mesh.vtu"));
     CHECK_THROWS_AS(frontmesh::io::read_tet_mesh(path), InputError);
     CHECK_THROWS_AS(frontmesh::io::read_surface(path), InputError);
+}
+
+// Found by fuzz_mesh (issue 21): an array type VTK does not know made its XML reader
+// dereference a null array (SEGV in vtkXMLReader::ReadXMLInformation).
+TEST_CASE("read_tet_mesh and read_surface refuse a VTK XML array of unknown type", "[io]") {
+    const std::string dir = frontmesh::fixtures::temp_dir("tet_vtu_unknown_type");
+    const std::string path = dir + "/mesh.vtu";
+    frontmesh::io::write_tet_mesh_vtu(frontmesh::fixtures::cube_tet_mesh(2, 1.0, false), path,
+                                      {{"note", "x"}});
+    std::string text;
+    {
+        std::ifstream in(path, std::ios::binary);
+        text.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+    }
+    const std::size_t at = text.find("type=\"Int32\"");
+    REQUIRE(at != std::string::npos);
+    text.replace(at, 12, "type=\"Int10\"");
+    write_text(path, text);
+    const std::string msg = input_error_message([&] { frontmesh::io::read_tet_mesh(path); });
+    CHECK_THAT(msg, Catch::Contains("mesh.vtu") && Catch::Contains("type 'Int10'"));
+    CHECK_THROWS_AS(frontmesh::io::read_surface(path), InputError);
+}
+
+// Found by fuzz_mesh (issue 21): VTK's XML reader divides by the block size of a compressed
+// array's header (SIGFPE when it is 0) and allocates the compressed size it states.
+TEST_CASE("read_surface refuses compressed VTK XML blocks of impossible sizes", "[io]") {
+    const std::string dir = frontmesh::fixtures::temp_dir("vtp_block_sizes");
+    const SurfaceNetwork net = two_region_network();
+    auto write = [&](const std::string& path, bool appended) {
+        vtkNew<vtkXMLPolyDataWriter> writer;
+        writer->SetInputData(to_polydata(net));
+        writer->SetFileName(path.c_str());
+        writer->SetHeaderTypeToUInt32();
+        writer->SetCompressorTypeToZLib();
+        if (appended) {
+            writer->SetDataModeToAppended();
+            writer->EncodeAppendedDataOff();
+        } else {
+            writer->SetDataModeToBinary();
+        }
+        REQUIRE(writer->Write() == 1);
+        CHECK(io::read_surface(path).face_count() == net.face_count());
+        std::ifstream in(path, std::ios::binary);
+        return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+    };
+    SECTION("inline base64: a block size of 0") {
+        std::string text = write(dir + "/inline.vtp", false);
+        std::size_t at = text.find('>', text.find("format=\"binary\"")) + 1;
+        while (std::isspace(static_cast<unsigned char>(text[at]))) ++at;
+        text.replace(at, 16, "AQAAAAAAAAAAAAAA");  // 1 block of 0 bytes, last 0
+        write_text(dir + "/inline.vtp", text);
+        CHECK_THAT(input_error_message([&] { io::read_surface(dir + "/inline.vtp"); }),
+                   Catch::Contains("inline.vtp") && Catch::Contains("blocks of 0 bytes"));
+    }
+    SECTION("raw appended: a compressed size beyond the file") {
+        std::string text = write(dir + "/appended.vtp", true);
+        const std::size_t data = text.find('_', text.find("<AppendedData")) + 1;
+        text.replace(data + 12, 4, std::string("\xff\xff\xff\x7f", 4));
+        write_text(dir + "/appended.vtp", text);
+        CHECK_THAT(input_error_message([&] { io::read_surface(dir + "/appended.vtp"); }),
+                   Catch::Contains("appended.vtp") && Catch::Contains("compressed bytes"));
+    }
 }
 
 TEST_CASE("write_diagnostic_vtu writes lines, triangles and tets with kind and what", "[io]") {

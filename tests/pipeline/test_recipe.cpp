@@ -152,6 +152,13 @@ TEST_CASE("recipe errors: one line naming file, line and key", "[pipeline]") {
                    Catch::Contains("r.yaml:5: output.split_interfaces: label 5 is not in "
                                    "input.labels"));
     }
+    SECTION("a key that is not a name") {
+        // Found by fuzz_recipe (issue 21): yaml-cpp's bad conversion escaped as exit 1.
+        CHECK_THAT(error_of("? {image: a}\n: x\n"),
+                   Catch::Contains("r.yaml:1") && Catch::Contains("a key must be a plain name"));
+        CHECK_THAT(error_of("input:\n  ? [image]\n  : ball.mha\n"),
+                   Catch::Contains("r.yaml:2") && Catch::Contains("a key must be a plain name"));
+    }
     SECTION("a valid recipe has no error") { CHECK(error_of("input:\n  image: ball.mha\n") == ""); }
 }
 
