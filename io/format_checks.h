@@ -22,11 +22,14 @@ void check_ply(const std::string& path);
 /// Throws InputError naming the file.
 void check_stl(const std::string& path);
 
-/// Checks the XML of a VTK XML file (.vtu, .vtp) for what VTK 9.1's readers do not check:
-/// every DataArray (and Array) element has a known type name, and the header of each array
-/// in raw appended data (a byte count, or compressed block sizes) fits in the file. A file
-/// VTK's XML parser cannot parse passes (the reader reports it). Throws InputError naming
-/// the file and the array. Cost: parsing the XML part once more.
+/// Checks a VTK XML file (.vtu, .vtp) for what VTK 9.1's readers do not check: every
+/// DataArray (and Array) has a known type name and a format (ascii, binary, appended); the
+/// headers of binary data (a byte count, or compressed block sizes) fit in the file; each
+/// array of a Piece (points, point and cell data, cell offsets and types) and each field
+/// array with NumberOfTuples holds at least the values its counts need, ascii values that
+/// parse as its type and base64 text without other characters. A file VTK's XML parser
+/// cannot parse passes (the reader reports it). Throws InputError naming the file and the
+/// array. Cost: parsing the XML once more and one pass over inline data.
 void check_vtk_xml(const std::string& path);
 
 }  // namespace frontmesh::io

@@ -12,8 +12,7 @@
 # sequence of inputs on any machine, cut where its time ends, so a finding in CI is found
 # again locally by the same command. Unset, each run takes a new seed.
 # FRONTMESH_FUZZ_REPLAY="surface mesh" runs those targets on their corpus only (each file
-# once, no mutation). CI does so for the surface and mesh targets while VTK's XML readers
-# still crash on files whose counts disagree with their data (tests/fuzz/open/README.md).
+# once, no mutation): a quick check that no regress-* input crashes again.
 #
 # A single allocation the file asks for beyond what the machine has (a damaged array size
 # in a VTK XML file asked for 412 GB) makes malloc return null, as glibc does, instead of

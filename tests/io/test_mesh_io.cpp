@@ -931,6 +931,63 @@ TEST_CASE("read_surface refuses compressed VTK XML blocks of impossible sizes", 
     }
 }
 
+// Found by fuzz_surface and fuzz_mesh (issue 21): VTK's XML reader dereferences null when an
+// array holds fewer values than its Piece counts, an ascii value does not parse, base64 data
+// holds another character, or an array has no format.
+TEST_CASE("read_surface refuses VTK XML arrays that do not hold what their piece counts", "[io]") {
+    const std::string dir = frontmesh::fixtures::temp_dir("vtp_counts");
+    const SurfaceNetwork net = two_region_network();
+    auto written = [&](bool ascii) {
+        const std::string path = dir + (ascii ? "/ascii.vtp" : "/binary.vtp");
+        vtkNew<vtkXMLPolyDataWriter> writer;
+        writer->SetInputData(to_polydata(net));
+        writer->SetFileName(path.c_str());
+        if (ascii)
+            writer->SetDataModeToAscii();
+        else
+            writer->SetDataModeToBinary();
+        REQUIRE(writer->Write() == 1);
+        CHECK(io::read_surface(path).face_count() == net.face_count());
+        std::ifstream in(path, std::ios::binary);
+        return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+    };
+    auto refused = [&](std::string text, const std::string& from, const std::string& to,
+                       const std::string& why) {
+        const std::size_t at = text.find(from);
+        REQUIRE(at != std::string::npos);
+        text.replace(at, from.size(), to);
+        write_text(dir + "/bad.vtp", text);
+        const std::string msg = input_error_message([&] { io::read_surface(dir + "/bad.vtp"); });
+        CHECK_THAT(msg, Catch::Contains("bad.vtp") && Catch::Contains(why));
+    };
+    const std::string polys = "NumberOfPolys=\"" + std::to_string(net.face_count()) + "\"";
+    const std::string more = "NumberOfPolys=\"" + std::to_string(net.face_count() + 1) + "\"";
+    SECTION("ascii") {
+        const std::string text = written(true);
+        refused(text, polys, more, "its piece needs " + std::to_string(net.face_count() + 1));
+        refused(text, "Name=\"Points\" NumberOfComponents=\"3\" format=\"ascii\"",
+                "Name=\"Points\" NumberOfComponents=\"3\" format=\"asci\"", "has format \"asci\"");
+        // a quote after the first character of the first coordinate
+        const std::size_t data = text.find('>', text.find("Name=\"Points\"")) + 1;
+        std::string bad = text;
+        bad.insert(bad.find_first_not_of(" \n", data) + 1, "\"");
+        write_text(dir + "/token.vtp", bad);
+        CHECK_THAT(input_error_message([&] { io::read_surface(dir + "/token.vtp"); }),
+                   Catch::Contains("Points") && Catch::Contains("is not a number"));
+    }
+    SECTION("binary") {
+        const std::string text = written(false);
+        refused(text, polys, more, "its piece needs " + std::to_string(net.face_count() + 1));
+        // the last character of the points' base64 data (the text up to the next tag)
+        const std::size_t end = text.find('<', text.find('>', text.find("Name=\"Points\"")));
+        std::string bad = text;
+        bad[bad.find_last_not_of(" \n", end - 1)] = ',';
+        write_text(dir + "/comma.vtp", bad);
+        CHECK_THAT(input_error_message([&] { io::read_surface(dir + "/comma.vtp"); }),
+                   Catch::Contains("Points") && Catch::Contains("not base64"));
+    }
+}
+
 TEST_CASE("write_diagnostic_vtu writes lines, triangles and tets with kind and what", "[io]") {
     core::Diagnostic d;
     d.name = "stall";
