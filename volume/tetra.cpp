@@ -46,13 +46,15 @@ RegionResult RegionMesher::run(ClosingOrder order, bool last_attempt) {
     }
     // Relaxed filling; with ClosingOrder::cones_first one completion round (which removes
     // no tets where it fails); the rounds that remove rings of tets and re-advance; the
-    // completion path (volume/tetra_region.cpp) for what they leave.
+    // completion path (volume/tetra_region.cpp) for what they leave, and partial cones for
+    // a cavity that is star-shaped from no point.
     std::int64_t closing_rounds = close_cavities(0, 0);
     std::int64_t cones = 0;
     if (order == ClosingOrder::cones_first && front_.size() > 0) cones += complete_cavities(1);
     if (front_.size() > 0) {
         closing_rounds += close_cavities(1, params_.max_closing_rounds);
         if (front_.size() > 0) cones += complete_cavities(kCompletionRounds);
+        if (front_.size() > 0) cones += split_cavities(kSplitRounds);
     }
     if (front_.size() > 0) {
         if (last_attempt) diagnose_open_front();

@@ -302,6 +302,11 @@ private:
     std::int64_t complete_cavities(std::int32_t rounds);
     std::vector<std::vector<std::int32_t>> front_cavities() const;
     bool fill_star(const std::vector<std::int32_t>& cavity);
+    /// At most this many rounds of partial cones (split_cavities) per region: each round
+    /// adds a tet or is the last. The count of rounds is the bound.
+    static constexpr std::int32_t kSplitRounds = 32;
+    bool fill_partial(const std::vector<std::int32_t>& cavity);
+    std::int64_t split_cavities(std::int32_t rounds);
     std::vector<std::int32_t> front_cavity_of(std::int32_t g) const;
     std::int32_t tet_behind(std::int32_t a, std::int32_t b, std::int32_t c) const;
     bool grow_star(const std::vector<std::int32_t>& cavity, const V3& P,

@@ -1,6 +1,7 @@
 #include "volume/tetra_mesher.h"
 
 #include <algorithm>
+#include <limits>
 #include <map>
 #include <set>
 #include <sstream>
@@ -367,6 +368,139 @@ bool RegionMesher::fill_star(const std::vector<std::int32_t>& cavity) {
         if (cone_from(P, grown, faces)) return true;
     }
     return false;
+}
+
+/// A cavity star-shaped from no point (one that wraps around an island of the input surface:
+/// torus-like, torture seed 466's 592 faces of Euler characteristic 0) is closed piece by
+/// piece. Grown from a seed face through shared edges, patches of 4, 8, 16 ... faces keep a
+/// kernel until the patch turns around the island. Candidate points: the kernel centre of
+/// each such patch, largest first, and the points 1/2 and 1/4 of the way to it from the
+/// seed face's centre (still in the patch's kernel, which is convex and touches the seed
+/// face, but nearer the seed: a large patch's centre can lie beyond the cavity). The seeds:
+/// the largest face, then the faces a quarter, half and three quarters along the growth.
+/// For the first candidate P that works, the cone from P takes every cavity face that sees
+/// P and whose tet passes the exact validity test, nearest first. What is left of the
+/// cavity, closed by P's new faces, is the next round's cavity: a shorter turn around the
+/// island, star-shaped once the cones have cut the ring. True when a tet was added.
+bool RegionMesher::fill_partial(const std::vector<std::int32_t>& cavity) {
+    const std::size_t n = cavity.size();
+    if (n < 4) return false;
+    std::map<std::pair<std::int32_t, std::int32_t>, std::vector<std::size_t>> edge_faces;
+    std::size_t largest = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+        const Tri& t = front_.face(cavity[i]).v;
+        for (int k = 0; k < 3; ++k)
+            edge_faces[{std::min(t[k], t[(k + 1) % 3]), std::max(t[k], t[(k + 1) % 3])}].push_back(
+                i);
+        if (front_.face(cavity[i]).area > front_.face(cavity[largest]).area) largest = i;
+    }
+    // The cavity's faces joined through shared edges in breadth-first order from `seed`
+    // (ties by position): each face enters the order once.
+    auto growth_from = [&](std::size_t seed) {
+        std::vector<std::size_t> order{seed};
+        std::vector<char> taken(n, 0);
+        taken[seed] = 1;
+        for (std::size_t q = 0; q < order.size(); ++q) {
+            const Tri& t = front_.face(cavity[order[q]]).v;
+            for (int k = 0; k < 3; ++k)
+                for (std::size_t j :
+                     edge_faces[{std::min(t[k], t[(k + 1) % 3]), std::max(t[k], t[(k + 1) % 3])}])
+                    if (!taken[j]) {
+                        taken[j] = 1;
+                        order.push_back(j);
+                    }
+        }
+        return order;
+    };
+    auto centroid = [&](std::int32_t f) {
+        const Tri& t = front_.face(f).v;
+        return V3((x(t[0]) + x(t[1]) + x(t[2])) / 3.0);
+    };
+    // The candidates of one seed, best first.
+    auto candidates_from = [&](const std::vector<std::size_t>& order) {
+        std::vector<V3> centres;
+        // Patch sizes double up to the cavity's size: at most log2(n) + 2 patches.
+        for (std::size_t size = 4; size <= 2 * order.size(); size *= 2) {
+            const std::size_t m = std::min(size, order.size());
+            std::vector<CavityPlane> planes;
+            V3 centre = V3::Zero();
+            for (std::size_t q = 0; q < m; ++q) {
+                const std::int32_t f = cavity[order[q]];
+                const V3 nrm = front_.normal(f);
+                planes.push_back({nrm, nrm.dot(x(front_.face(f).v[0]))});
+                centre += centroid(f);
+            }
+            centre /= static_cast<double>(m);
+            double radius = 0.0;
+            for (std::size_t q = 0; q < m; ++q)
+                for (std::int32_t v : front_.face(cavity[order[q]]).v)
+                    radius = std::max(radius, (x(v) - centre).norm());
+            if (!(radius > 0.0)) break;
+            const KernelCentre k = kernel_centre(planes, centre, radius);
+            if (!k.solved || !(k.t > 0.0) || !k.p.allFinite()) break;
+            centres.push_back(k.p);
+            if (m == order.size()) break;
+        }
+        const V3 c0 = centroid(cavity[order.front()]);
+        std::vector<V3> points;
+        for (auto it = centres.rbegin(); it != centres.rend(); ++it)
+            for (const double s : {1.0, 0.5, 0.25}) points.push_back(c0 + s * (*it - c0));
+        return points;
+    };
+    // The partial cone from P; the tets added.
+    auto cone = [&](const V3& P) {
+        std::vector<std::pair<double, std::size_t>> near;
+        for (std::size_t i = 0; i < n; ++i) {
+            const Tri& t = front_.face(cavity[i]).v;
+            if (core::tet_signed_volume(x(t[0]), x(t[1]), x(t[2]), P) > 0.0)
+                near.push_back({(centroid(cavity[i]) - P).squaredNorm(), i});
+        }
+        std::sort(near.begin(), near.end());
+        std::vector<Tri> faces;
+        for (const auto& [d, i] : near) faces.push_back(front_.face(cavity[i]).v);
+        std::int32_t apex = -1;
+        std::int64_t added = 0;
+        // One try per face: bounded by the cavity's size.
+        for (const Tri& t : faces) {
+            const std::int32_t f = front_.find_face(t[0], t[1], t[2]);
+            if (f < 0 || !same_cycle(front_.face(f).v, t[0], t[1], t[2])) continue;
+            const Base bk = make_base(f, false);
+            Search s = relaxed_search(bk);
+            const bool ok = apex < 0 ? try_new(bk, s, P) : try_existing(bk, s, apex);
+            if (ok && apex < 0) apex = node_count() - 1;
+            added += ok ? 1 : 0;
+        }
+        return added;
+    };
+    const std::vector<std::size_t> first = growth_from(largest);
+    // At most 4 seeds, each with at most 3 (log2(n) + 2) candidates.
+    for (const std::size_t at : {std::size_t(0), n / 4, n / 2, 3 * n / 4}) {
+        const std::vector<std::size_t> order =
+            at == 0 ? first : growth_from(first[std::min(at, first.size() - 1)]);
+        for (const V3& P : candidates_from(order))
+            if (cone(P) > 0) return true;
+    }
+    return false;
+}
+
+/// Closing by partial cones (fill_partial) where the completion rounds leave a cavity: each
+/// round fills every cavity that is star-shaped from a point and cuts a cone out of every
+/// other one, at most `rounds` rounds; a round that adds no tet ends them. The cones made.
+std::int64_t RegionMesher::split_cavities(std::int32_t rounds) {
+    std::int64_t cones = 0;
+    for (std::int32_t round = 0; round < rounds && front_.size() > 0; ++round) {
+        sink_.check_cancelled();
+        bool progress = false;
+        for (const std::vector<std::int32_t>& cavity : front_cavities()) {
+            // The cavities of one round are disjoint: filling one leaves the others' faces.
+            if (fill_star(cavity) || fill_partial(cavity)) {
+                ++cones;
+                progress = true;
+            }
+        }
+        if (!progress) break;
+    }
+    return cones;
 }
 
 /// Removes the tets `grown` and fills the cavity bounded by `faces` (which all see P) with
