@@ -257,9 +257,13 @@ NiftiHeader read_nifti_header(const std::string& path, const std::string& file) 
         for (int i = 0; i < 12; ++i) n.srow[i] = field<double>(p, 400 + 8 * i, swap);
         n.xyz_units = field<std::int32_t>(p, 500, swap) & 0x07;
     } else {
-        const std::string_view magic(reinterpret_cast<const char*>(p) + 344, 3);
-        n.is_nifti = magic == "n+1" || magic == "ni1";
-        n.single_file = magic == "n+1";
+        // As niftilib's NIFTI_VERSION and NIFTI_ONEFILE decide it (nifti1.h): "n+" or "ni", a
+        // digit 1..9 and a NUL is NIfTI whatever the digit ("n+2" in a 348-byte header is read
+        // as NIfTI-1 with its qform and sform), anything else is Analyze 7.5.
+        const char* magic = reinterpret_cast<const char*>(p) + 344;
+        n.is_nifti = magic[0] == 'n' && (magic[1] == '+' || magic[1] == 'i') && magic[2] >= '1' &&
+                     magic[2] <= '9' && magic[3] == '\0';
+        n.single_file = n.is_nifti && magic[1] == '+';
         for (int d = 0; d < 8; ++d) n.dim[d] = field<std::int16_t>(p, 40 + 2 * d, swap);
         n.datatype = field<std::int16_t>(p, 70, swap);
         for (int d = 0; d < 8; ++d) n.pixdim[d] = field<float>(p, 76 + 4 * d, swap);
@@ -467,6 +471,10 @@ void check_nifti(const std::string& path, const std::string& file, const HeaderL
             static const char* const names[] = {"quatern_b", "quatern_c", "quatern_d",
                                                 "qoffset_x", "qoffset_y", "qoffset_z"};
             for (int i = 0; i < 6; ++i) finite(names[i], n.quatern[i]);
+            // The qform scales by pixdim[1..3] even when the spacing is given by the user: a
+            // NaN there makes ITK's orientation SVD (netlib ssvdc) loop without end.
+            for (int d = 1; d <= 3; ++d)
+                finite("pixdim[" + std::to_string(d) + "] (used by the qform)", n.pixdim[d]);
             for (int i = 3; i < 6; ++i)
                 check_origin(path, std::string("NIfTI header: ") + names[i], n.quatern[i]);
         }

@@ -643,6 +643,15 @@ TEST_CASE("NIfTI header values are checked before ITK reads them", "[io]") {
         {"qform_nan",
          [&](const std::string& b) { return poked<float>(b, 256, nan); },
          {"quatern_b", "nan"}},
+        // niftilib reads any digit after "n+" as NIfTI (NIFTI_VERSION), so a "n+2" magic in a
+        // 348-byte header still has its sform used; a NaN in it made ITK's SVD loop forever.
+        {"magic_n+2_sform_nan",
+         [&](const std::string& b) {
+             std::string c = b;
+             c[346] = '2';
+             return poked<float>(c, 324, nan);
+         },
+         {"srow_z[3]", "nan"}},
         {"dim_zero",
          [&](const std::string& b) { return poked<std::int16_t>(b, 44, 0); },
          {"dim[2]", "at least 1"}},
@@ -690,6 +699,9 @@ TEST_CASE("NIfTI header values are checked before ITK reads them", "[io]") {
         check_image(read_label_image(path, options), respaced, 1, test_label, 1e-4);
         write_bytes(path, poked<float>(read_bytes(path), 300, nan));
         check_refused(path, options, path, {"srow_y[1]"});
+        // The qform scales by pixdim[1..3] even then: a NaN there is refused.
+        write_bytes(path, poked<float>(read_bytes(valid), 80, nan));
+        check_refused(path, options, path, {"pixdim[1] (used by the qform)", "nan"});
     }
 
     SECTION("a .hdr/.img pair: the header in one file, the voxels in the other") {
