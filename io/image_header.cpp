@@ -5,6 +5,7 @@
 #include <cctype>
 #include <cerrno>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
@@ -564,11 +565,39 @@ std::uint64_t meta_type_bytes(const std::string& type) {
     return it == sizes.end() ? 0 : it->second;
 }
 
-/// Whitespace-separated numbers of a header value; nullopt when one token is not a number.
-std::optional<std::vector<double>> parse_numbers(const std::string& value) {
+/// Whether `token` is a number as C++'s `operator>>(double&)` reads it whole: sign, digits,
+/// point, exponent, nothing else (no "inf", "nan" or hex, which strtod would take).
+bool plain_decimal(const std::string& token) {
+    std::size_t i = 0;
+    const std::size_t n = token.size();
+    auto digits = [&] {
+        const std::size_t from = i;
+        while (i < n && token[i] >= '0' && token[i] <= '9') ++i;
+        return i - from;
+    };
+    if (i < n && (token[i] == '+' || token[i] == '-')) ++i;
+    std::size_t mantissa = digits();
+    if (i < n && token[i] == '.') {
+        ++i;
+        mantissa += digits();
+    }
+    if (mantissa == 0) return false;
+    if (i < n && (token[i] == 'e' || token[i] == 'E')) {
+        ++i;
+        if (i < n && (token[i] == '+' || token[i] == '-')) ++i;
+        if (digits() == 0) return false;
+    }
+    return i == n;
+}
+
+/// Whitespace-separated numbers of a header value; nullopt when one token is not a number
+/// (with `decimal_only`, when one is not a plain decimal number).
+std::optional<std::vector<double>> parse_numbers(const std::string& value,
+                                                 bool decimal_only = false) {
     std::vector<double> numbers;
     std::istringstream tokens(value);
     for (std::string token; tokens >> token;) {
+        if (decimal_only && !plain_decimal(token)) return std::nullopt;
         char* end = nullptr;
         const double number = std::strtod(token.c_str(), &end);
         if (end == token.c_str() || *end != '\0') return std::nullopt;
@@ -580,17 +609,29 @@ std::optional<std::vector<double>> parse_numbers(const std::string& value) {
 /// One checked header of text key/value lines, with the messages' common start.
 class TextHeader {
 public:
-    TextHeader(const std::string& path, const std::string& file, const std::string& format)
+    /// `decimal_only`: numbers are read as C++ streams read them (MetaIO), not as strtod.
+    TextHeader(const std::string& path, const std::string& file, const std::string& format,
+               bool decimal_only = false)
         : where_(image_prefix(path) + format + " header" +
-                 (file == path ? std::string() : " '" + file + "'") + ": ") {}
+                 (file == path ? std::string() : " '" + file + "'") + ": "),
+          decimal_only_(decimal_only) {}
 
     [[noreturn]] void fail(const std::string& what) const { FM_THROW(InputError, where_ + what); }
 
     /// `count` numbers (at least) of `value`, the value of `key`.
     std::vector<double> numbers(const std::string& key, const std::string& value,
                                 std::size_t count) const {
-        auto values = parse_numbers(value);
-        if (!values) fail(key + " '" + value + "' is not a list of numbers");
+        auto values = parse_numbers(value, decimal_only_);
+        if (!values) {
+            // Name the first token that is no number.
+            std::istringstream tokens(value);
+            std::size_t index = 1;
+            for (std::string token; tokens >> token; ++index)
+                if (!parse_numbers(token, decimal_only_))
+                    fail(key + " value " + std::to_string(index) + " '" + token.substr(0, 40) +
+                         "' is not a " + (decimal_only_ ? "decimal number" : "number"));
+            fail(key + " '" + value + "' is not a list of numbers");
+        }
         if (values->size() < count)
             fail(key + " '" + value + "' has " + std::to_string(values->size()) +
                  " values; expected " + std::to_string(count));
@@ -637,6 +678,7 @@ public:
 
 private:
     std::string where_;
+    bool decimal_only_ = false;
 };
 
 /// Lines of a text header from `in` until `is_last(line)` or `stop_at_blank` meets an empty
@@ -668,7 +710,7 @@ std::string beside(const std::string& header_file, const std::string& name) {
 }
 
 void check_metaimage(const std::string& path, const std::string& file, const HeaderLimits& limits) {
-    const TextHeader header(path, file, "MetaImage");
+    const TextHeader header(path, file, "MetaImage", true);
     std::ifstream in(file, std::ios::binary);
     if (!in) header.fail("the file cannot be opened");
     std::uint64_t header_end = 0;
@@ -677,11 +719,43 @@ void check_metaimage(const std::string& path, const std::string& file, const Hea
         [](const std::string& line) { return trimmed(line).rfind("ElementDataFile", 0) == 0; },
         header_end, header);
 
+    // Keys and values as MetaIO's MET_Read takes them, or refused where it would take them
+    // otherwise than we do (a fuzzed header overflowed its 255-byte key buffer, another one
+    // had a value it read differently): a key ends at the first '=' or ':', a line with
+    // neither would make MetaIO read on into the next line, a control character means the
+    // header is damaged, and a key given twice is ambiguous.
     std::map<std::string, std::string> keys;
-    for (const std::string& line : lines) {
-        const auto eq = line.find('=');
-        if (eq == std::string::npos) continue;
-        keys[trimmed(line.substr(0, eq))] = trimmed(line.substr(eq + 1));
+    std::map<std::string, std::size_t> key_line;
+    for (std::size_t i = 0; i < lines.size(); ++i) {
+        const std::string& line = lines[i];
+        const std::string line_name = "line " + std::to_string(i + 1);
+        for (const char ch : line) {
+            const auto c = static_cast<unsigned char>(ch);
+            if ((c < 0x20 && c != '\t') || c == 0x7f) {
+                char code[8];
+                std::snprintf(code, sizeof code, "0x%02x", c);
+                header.fail(line_name + " holds the control character " + code +
+                            "; a MetaImage header is text");
+            }
+        }
+        // MetaIO reads a line into 500 bytes (getline); a longer one fails its stream, and
+        // what it reads after that (even a size taken from tellg() = -1) is garbage.
+        if (line.size() > 400)
+            header.fail(line_name + " is " + std::to_string(line.size()) +
+                        " characters long; at most 400");
+        if (trimmed(line).empty()) continue;
+        const auto separator = line.find_first_of("=:");
+        if (separator == std::string::npos)
+            header.fail(line_name + " '" + trimmed(line).substr(0, 80) +
+                        "' is not a 'Key = value' line");
+        const std::string key = trimmed(line.substr(0, separator));
+        if (key.size() > 200)
+            header.fail(line_name + ": the key '" + key.substr(0, 40) + "...' is " +
+                        std::to_string(key.size()) + " characters long; at most 200");
+        if (const auto [it, added] = key_line.emplace(key, i + 1); !added)
+            header.fail(key + " is given twice (lines " + std::to_string(it->second) + " and " +
+                        std::to_string(i + 1) + ")");
+        keys[key] = trimmed(line.substr(separator + 1));
     }
     auto value_of = [&](std::initializer_list<const char*> names)
         -> std::optional<std::pair<std::string, std::string>> {

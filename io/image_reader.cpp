@@ -547,6 +547,11 @@ OpenImage open_image(const std::string& path, const ImageReadOptions& options) {
         FM_THROW(InputError, image_prefix(path) + "cannot be read: " + short_reason(e));
     }
 
+    // ITK's readers may leave the type unknown without an error (MetaIO read "\rMET_UCHAR"
+    // as a type name); ITK would then throw from GetComponentSize() below.
+    if (io->GetComponentType() == itk::IOComponentEnum::UNKNOWNCOMPONENTTYPE)
+        FM_THROW(InputError, image_prefix(path) + "has a voxel type ITK cannot read" +
+                                 (first == path ? std::string() : " ('" + first + "')"));
     if (io->GetNumberOfComponents() != 1)
         FM_THROW(InputError, image_prefix(path) + "has " +
                                  std::to_string(io->GetNumberOfComponents()) +

@@ -54,6 +54,15 @@ for target in recipe image surface mesh; do
       -artifact_prefix="$out/" -print_final_stats=1 "$work" > "$out/fuzz_$target.log" 2>&1; then
     echo "fuzz_$target FAILED, see $out/fuzz_$target.log:"
     grep -E "ERROR|fuzz:|SUMMARY|Test unit written" "$out/fuzz_$target.log" | head -20
+    # The finding itself, in the log: a CI machine's build folder is gone after the run, so
+    # the input is printed (base64, up to 16 KiB) to be rebuilt with `base64 -d`.
+    for artifact in $(sed -n "s/.*Test unit written to \([^ ]*\).*/\1/p" \
+        "$out/fuzz_$target.log"); do
+      if [[ -f $artifact && $(stat -c %s "$artifact") -le 16384 ]]; then
+        echo "  input $artifact, base64:"
+        base64 -w 100 "$artifact" | sed "s/^/    /"
+      fi
+    done
     status=1
   fi
   grep -E "^#[0-9]+.*DONE|stat::number_of_executed_units|stat::peak_rss_mb" \

@@ -774,6 +774,22 @@ TEST_CASE("MetaImage and NRRD headers and data sizes are checked before allocati
         check_refused(path, ImageReadOptions{}, path, {"Offset", "inf"});
         write_bytes(path, with_line(header, "ElementType", "ElementType = MET_NOTHING"));
         check_refused(path, ImageReadOptions{}, path, {"ElementType", "MET_NOTHING"});
+        // What MetaIO would read otherwise than this check does is refused (fuzz findings:
+        // an overflow of MetaIO's key buffer, a 2^64-byte allocation, an unknown type).
+        write_bytes(path, with_line(header, "ElementType", "ElementType = \rMET_UCHAR"));
+        check_refused(path, ImageReadOptions{}, path, {"control character 0x0d"});
+        write_bytes(path, with_line(header, "Offset", "Offset = 0 0 0\n" + std::string(300, 'K')));
+        check_refused(path, ImageReadOptions{}, path, {"line", "is not a 'Key = value' line"});
+        write_bytes(path, with_line(header, "Offset", std::string(300, 'K') + " = 1"));
+        check_refused(path, ImageReadOptions{}, path, {"300 characters long", "at most 200"});
+        write_bytes(path, with_line(header, "Offset", "Offset = " + std::string(500, '0')));
+        check_refused(path, ImageReadOptions{}, path, {"509 characters long", "at most 400"});
+        write_bytes(path, with_line(header, "DimSize", "DimSize : 1500 1500 1500"));
+        check_refused(path, ImageReadOptions{}, path, {"DimSize", "1500 x 1500 x 1500"});
+        write_bytes(path, with_line(header, "DimSize", "DimSize = 12 10 8\nDimSize = 12 10 9"));
+        check_refused(path, ImageReadOptions{}, path, {"DimSize is given twice"});
+        write_bytes(path, with_line(header, "DimSize", "DimSize = 12 0x10 8"));
+        check_refused(path, ImageReadOptions{}, path, {"DimSize value 2 '0x10'", "decimal"});
     }
     SECTION("MetaImage with attached data (.mha)") {
         const std::string path = dir + "/labels.mha";
