@@ -709,6 +709,46 @@ std::string beside(const std::string& header_file, const std::string& name) {
     return (fs::path(header_file).parent_path() / p).string();
 }
 
+/// A MetaImage printf pattern "ElementDataFile = slice%03d.raw MIN MAX STEP [SUBDIM]": MetaIO
+/// formats the pattern with an int (anything but one %d conversion reads garbage from its
+/// stack) and divides by STEP (0 stopped a fuzzed run with SIGFPE). The files it names, one
+/// per slice of SUBDIM (default NDims - 1) dimensions, must be as many as those slices.
+void check_meta_pattern(const TextHeader& header, const std::vector<std::string>& tokens,
+                        const std::vector<std::uint64_t>& extents) {
+    const std::string key = "ElementDataFile";
+    if (tokens.size() < 4 || tokens.size() > 5)
+        header.fail(key + " names a file pattern ('%' in '" + tokens.front().substr(0, 80) +
+                    "'); expected 'pattern MIN MAX STEP [SUBDIM]'");
+    const std::string& pattern = tokens.front();
+    std::size_t conversions = 0;
+    for (std::size_t i = pattern.find('%'); i != std::string::npos; i = pattern.find('%', i)) {
+        std::size_t j = i + 1;
+        while (j < pattern.size() && pattern[j] >= '0' && pattern[j] <= '9') ++j;
+        if (j >= pattern.size() || pattern[j] != 'd' || j - i > 4)
+            header.fail(key + " pattern '" + pattern.substr(0, 80) +
+                        "' may only hold one %d conversion (as %d or %03d)");
+        ++conversions;
+        i = j + 1;
+    }
+    if (conversions != 1)
+        header.fail(key + " pattern '" + pattern.substr(0, 80) + "' holds " +
+                    std::to_string(conversions) + " conversions; expected one %d");
+    const std::int64_t lo = 0, hi = std::int64_t{1} << 30;
+    const std::int64_t first = header.integer(key + " MIN", tokens[1], lo, hi);
+    const std::int64_t last = header.integer(key + " MAX", tokens[2], first, hi);
+    const std::int64_t step = header.integer(key + " STEP", tokens[3], 1, hi);
+    const auto ndims = static_cast<std::int64_t>(extents.size());
+    const std::int64_t subdim =
+        tokens.size() == 5 ? header.integer(key + " SUBDIM", tokens[4], 1, ndims) : ndims - 1;
+    std::uint64_t slices = 1;
+    for (auto d = static_cast<std::size_t>(subdim); d < extents.size(); ++d) slices *= extents[d];
+    const auto files = static_cast<std::uint64_t>((last - first) / step + 1);
+    if (files != slices)
+        header.fail(key + " pattern names " + std::to_string(files) + " files (" + tokens[1] +
+                    " to " + tokens[2] + " by " + tokens[3] + "); DimSize needs " +
+                    std::to_string(slices));
+}
+
 void check_metaimage(const std::string& path, const std::string& file, const HeaderLimits& limits) {
     const TextHeader header(path, file, "MetaImage", true);
     std::ifstream in(file, std::ios::binary);
@@ -827,9 +867,11 @@ void check_metaimage(const std::string& path, const std::string& file, const Hea
     std::vector<std::string> tokens;
     for (std::string token; data_tokens >> token;) tokens.push_back(token);
     // LIST and printf patterns ("slice%03d.raw 1 40 1") name one file per slice.
-    if (tokens.empty() || tokens.front() == "LIST" ||
-        (tokens.size() >= 3 && tokens.front().find('%') != std::string::npos))
+    if (tokens.empty() || tokens.front() == "LIST") return;
+    if (data_name.find('%') != std::string::npos) {
+        check_meta_pattern(header, tokens, extents);
         return;
+    }
     const bool local = data_name == "LOCAL" || data_name == "Local" || data_name == "local";
     const std::string data_file = local ? file : beside(file, data_name);
     if (!local) require_regular_file(path, data_file, "data file (ElementDataFile)");

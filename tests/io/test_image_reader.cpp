@@ -791,6 +791,31 @@ TEST_CASE("MetaImage and NRRD headers and data sizes are checked before allocati
         write_bytes(path, with_line(header, "DimSize", "DimSize = 12 0x10 8"));
         check_refused(path, ImageReadOptions{}, path, {"DimSize value 2 '0x10'", "decimal"});
     }
+    SECTION("MetaImage with one data file per slice (printf pattern)") {
+        const std::string path = dir + "/labels.mhd";
+        write_image(image.GetPointer(), path);
+        const std::string raw = read_bytes(dir + "/labels.raw");
+        const std::size_t slice = raw.size() / 8;
+        for (int k = 0; k < 8; ++k) {
+            char name[32];
+            std::snprintf(name, sizeof name, "/slice%03d.raw", 2 * k + 1);
+            write_bytes(dir + name, raw.substr(k * slice, slice));
+        }
+        const std::string header = read_bytes(path);
+        write_bytes(path,
+                    with_line(header, "ElementDataFile", "ElementDataFile = slice%03d.raw 1 15 2"));
+        check_image(read_label_image(path, ImageReadOptions{}), grid, 1, test_label, 1e-6);
+        // MetaIO divides by STEP (SIGFPE at 0) and formats the pattern with an int.
+        write_bytes(path,
+                    with_line(header, "ElementDataFile", "ElementDataFile = slice%03d.raw 1 15 0"));
+        check_refused(path, ImageReadOptions{}, path, {"ElementDataFile STEP is 0"});
+        write_bytes(path,
+                    with_line(header, "ElementDataFile", "ElementDataFile = slice%s.raw 1 15 2"));
+        check_refused(path, ImageReadOptions{}, path, {"one %d conversion"});
+        write_bytes(path,
+                    with_line(header, "ElementDataFile", "ElementDataFile = slice%03d.raw 1 13 2"));
+        check_refused(path, ImageReadOptions{}, path, {"names 7 files", "DimSize needs 8"});
+    }
     SECTION("MetaImage with attached data (.mha)") {
         const std::string path = dir + "/labels.mha";
         write_image(image.GetPointer(), path);
