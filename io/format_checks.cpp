@@ -423,7 +423,111 @@ public:
         if (format == "binary") inline_bytes(e);
     }
 
+    /// The values of the integer array `e` (its first `limit`), when they can be read
+    /// without inflating: ascii, or binary data that is not compressed. nullopt otherwise.
+    /// Bounded by `limit` and the file.
+    std::optional<std::vector<std::int64_t>> integers(vtkXMLDataElement* e, std::uint64_t limit) {
+        const std::string_view format = checked_format(e);
+        const std::string_view type = attribute(e, "type");
+        const std::size_t bytes = xml_type_bytes(type);
+        if (bytes == 0 || type.find("Int") == std::string_view::npos) return std::nullopt;
+        std::vector<std::int64_t> values;
+        if (format == "ascii") {
+            std::uint64_t at = 0;
+            if (!seek_inline_data(e, at)) return values;
+            std::string token;
+            char c = 0;
+            // One character per pass, up to the element's end or `limit` values.
+            while (values.size() < limit && in_.get(c) && c != '<') {
+                if (!std::isspace(static_cast<unsigned char>(c)) && token.size() <= 64) {
+                    token.push_back(c);
+                    continue;
+                }
+                if (!token.empty()) values.push_back(ascii_integer(token));
+                token.clear();
+            }
+            if (values.size() < limit && !token.empty()) values.push_back(ascii_integer(token));
+            return values;
+        }
+        if (compressed_) return std::nullopt;
+        std::string data;
+        if (format == "appended") {
+            std::uint64_t offset = 0;
+            if (appended_ <= 0 || !parse_number(attribute(e, "offset"), offset))
+                return std::nullopt;
+            std::uint64_t at = static_cast<std::uint64_t>(appended_) + offset;
+            const std::uint64_t held = word(at, e);  // checked against the file before
+            const std::uint64_t take = std::min({held, limit * bytes, size_ - at});
+            data.resize(take);
+            in_.clear();
+            in_.seekg(static_cast<std::streamoff>(at));
+            in_.read(data.data(), static_cast<std::streamsize>(take));
+            if (!in_) return std::nullopt;
+        } else {
+            std::uint64_t at = 0;
+            if (!seek_inline_data(e, at)) return values;
+            // Uncompressed, the header word and the data are one base64 stream.
+            std::string chars;
+            char c = 0;
+            const std::uint64_t want = 4 * ((word_ + limit * bytes + 2) / 3);
+            while (chars.size() < want && in_.get(c) && c != '<')
+                if (!std::isspace(static_cast<unsigned char>(c))) chars.push_back(c);
+            chars.resize(chars.size() / 4 * 4);
+            if (!decode_base64(chars, data)) return std::nullopt;
+            if (data.size() < word_) return values;
+            const std::uint64_t held = word_in(data, 0);
+            data.erase(0, word_);
+            if (data.size() > held) data.resize(held);
+        }
+        const std::size_t count = std::min<std::size_t>(data.size() / bytes, limit);
+        const bool is_signed = type.front() == 'I';
+        for (std::size_t i = 0; i < count; ++i) {
+            std::uint64_t v = 0;
+            for (std::size_t b = 0; b < bytes; ++b) {
+                const auto byte =
+                    static_cast<unsigned char>(data[i * bytes + (big_endian_ ? b : bytes - 1 - b)]);
+                v = (v << 8) | byte;
+            }
+            if (is_signed && bytes < 8 && (v >> (8 * bytes - 1)) != 0)
+                v |= ~std::uint64_t{0} << (8 * bytes);  // sign extension
+            values.push_back(static_cast<std::int64_t>(v));
+        }
+        return values;
+    }
+
+    /// How many values the array `e` holds when that is known without inflating.
+    std::optional<std::uint64_t> value_count(vtkXMLDataElement* e) {
+        const std::string_view format = checked_format(e);
+        const std::size_t bytes = xml_type_bytes(attribute(e, "type"));
+        if (bytes == 0) return std::nullopt;
+        if (format == "ascii") {
+            std::uint64_t at = 0;
+            if (!seek_inline_data(e, at)) return 0;
+            std::uint64_t found = 0;
+            bool in_token = false;
+            char c = 0;
+            while (in_.get(c) && c != '<') {  // one character per pass, bounded by the file
+                const bool space = std::isspace(static_cast<unsigned char>(c)) != 0;
+                if (!space && !in_token) ++found;
+                in_token = !space;
+            }
+            return found;
+        }
+        std::optional<std::uint64_t> held;
+        if (format == "appended" && appended_ > 0) held = appended_bytes(e);
+        if (format == "binary") held = inline_bytes(e);
+        if (!held) return std::nullopt;
+        return *held / bytes;
+    }
+
 private:
+    static std::int64_t ascii_integer(const std::string& token) {
+        long long v = 0;
+        std::string_view t(token);
+        if (t.size() > 1 && t[0] == '+') t.remove_prefix(1);
+        return parse_number(t, v) ? v : std::numeric_limits<std::int64_t>::max();
+    }
+
     // The array's format; VTK dereferences null for an array without one (found by
     // fuzz_surface).
     std::string_view checked_format(vtkXMLDataElement* e) const {
@@ -698,6 +802,37 @@ std::uint64_t saturated_product(std::uint64_t a, std::uint64_t b) {
                : a * b;
 }
 
+// A cell section (Cells, Verts, Lines, Strips, Polys): VTK allocates and reads as many
+// connectivity values as the last offset says (an ascii offset of 999999999 made it allocate
+// 8 GB and spend 13 s under ASan), so every offset must lie within the connectivity held.
+// Checked where both arrays can be read without inflating (ascii, uncompressed binary).
+void check_cell_arrays(const std::string& path, vtkXMLDataElement* section, XmlData& data) {
+    vtkXMLDataElement* offsets = nullptr;
+    vtkXMLDataElement* connectivity = nullptr;
+    for (int j = 0; j < section->GetNumberOfNestedElements(); ++j) {
+        vtkXMLDataElement* e = section->GetNestedElement(j);
+        if (e->GetName() == nullptr || std::string_view(e->GetName()) != "DataArray") continue;
+        if (attribute(e, "Name") == "offsets") offsets = e;
+        if (attribute(e, "Name") == "connectivity") connectivity = e;
+    }
+    if (offsets == nullptr || connectivity == nullptr) return;
+    const auto held = data.value_count(connectivity);
+    if (!held) return;
+    // At most one offset per connectivity value and one more (a leading 0): more is not read.
+    const auto values = data.integers(offsets, *held + 2);
+    if (!values) return;
+    for (std::size_t i = 0; i < values->size(); ++i) {
+        const std::int64_t v = (*values)[i];
+        if (v < 0 || static_cast<std::uint64_t>(v) > *held)
+            FM_THROW(InputError,
+                     in_quotes(path) + ": " + section->GetName() + " offsets value " +
+                         std::to_string(i) + " is " +
+                         (v == std::numeric_limits<std::int64_t>::max() ? std::string("not a count")
+                                                                        : std::to_string(v)) +
+                         "; the connectivity holds " + std::to_string(*held) + " values");
+    }
+}
+
 // The arrays of one Piece against its counts.
 void check_piece(const std::string& path, vtkXMLDataElement* piece, bool poly, XmlData& data) {
     const std::uint64_t points = piece_count(path, piece, "NumberOfPoints");
@@ -736,6 +871,7 @@ void check_piece(const std::string& path, vtkXMLDataElement* piece, bool poly, X
             else
                 data.check_headers(e);
         }
+        check_cell_arrays(path, section, data);
     }
 }
 
