@@ -8,9 +8,10 @@
 # BUILD_DIR/fuzz/crash-* (or timeout-*, oom-*, leak-*) and the script fails.
 # Reproduce with: BUILD_DIR/tests/fuzz/fuzz_TARGET BUILD_DIR/fuzz/crash-...
 #
-# FRONTMESH_FUZZ_SEED=N fixes libFuzzer's random seed (CI uses 1): a run is then the same
-# sequence of inputs on any machine, cut where its time ends, so a finding in CI is found
-# again locally by the same command. Unset, each run takes a new seed.
+# FRONTMESH_FUZZ_SEED=N fixes libFuzzer's random seed (CI uses 1). That does not make two
+# machines run the same inputs (the corpus is listed in another order, coverage feedback
+# differs, the time cut falls elsewhere): a CI finding is therefore printed into the log as
+# base64, to be rebuilt with `base64 -d` and replayed. Unset, each run takes a new seed.
 # FRONTMESH_FUZZ_REPLAY="surface mesh" runs those targets on their corpus only (each file
 # once, no mutation): a quick check that no regress-* input crashes again.
 #

@@ -34,7 +34,7 @@ else
   (cd build-san && ctest --output-on-failure -j"$(nproc)" -LE asan-slow "$@")
 fi
 if ((ci)); then
-  # A fixed seed: the same inputs on any machine, so a finding in CI is found again locally.
+  # A fixed seed (fuzz.sh: a finding's input is printed into the log, to be replayed).
   FRONTMESH_FUZZ_SEED=${FRONTMESH_FUZZ_SEED:-1} bash scripts/fuzz.sh build-san \
     "${FRONTMESH_FUZZ_SECONDS:-25}"
 else
