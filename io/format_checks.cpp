@@ -111,19 +111,31 @@ private:
         ++line_;
         if (line.size() > 4094) fail("longer than 4094 characters");
         if (line.find('\0') != std::string_view::npos) fail("holds a NUL byte");
-        // A '\r' of a CRLF file stays in vtkPLY's last word, where atoi and atof ignore it.
+        // vtkPLY's get_words overwrites any line from its first "vertex_index" on with
+        // "vertex_indices" (meant for the header's property name; a data line
+        // "0 0vertex_index 1" lost its last word and crashed the reader): the line is read
+        // as it does. Near the end of its 4096-byte buffer that write would overflow.
+        if (const auto at = line.find("vertex_index"); at != std::string_view::npos) {
+            if (at > 4000) fail("holds 'vertex_index' past column 4000");
+            rewritten_ = std::string(line.substr(0, at)) + "vertex_indices";
+            return rewritten_;
+        }
+        // A '\r' is a space to vtkPLY (see words()); a CRLF file's is dropped here.
         return line.ends_with('\r') ? line.substr(0, line.size() - 1) : line;
     }
 
-    // Words as vtkPLY splits them: at spaces and tabs.
+    // Words as vtkPLY splits them: at spaces, tabs and carriage returns.
     static std::vector<std::string_view> words(std::string_view line) {
         std::vector<std::string_view> out;
         std::size_t i = 0;
+        auto space = [&](std::size_t k) {
+            return line[k] == ' ' || line[k] == '\t' || line[k] == '\r';
+        };
         // Each pass of the outer loop consumes at least one character: bounded by the line.
         while (i < line.size()) {
-            while (i < line.size() && (line[i] == ' ' || line[i] == '\t')) ++i;
+            while (i < line.size() && space(i)) ++i;
             const std::size_t start = i;
-            while (i < line.size() && line[i] != ' ' && line[i] != '\t') ++i;
+            while (i < line.size() && !space(i)) ++i;
             if (i > start) out.push_back(line.substr(start, i - start));
         }
         return out;
@@ -348,6 +360,7 @@ private:
     std::string text_;
     std::size_t pos_ = 0;
     std::size_t line_ = 0;
+    std::string rewritten_;  // a line as vtkPLY rewrites it (next_line)
     std::string format_;
     std::vector<Element> elements_;
     long long vertex_count_ = 0;

@@ -437,6 +437,20 @@ TEST_CASE("read_surface refuses malformed PLY before VTK reads it", "[io]") {
         CHECK_THAT(msg, Catch::Contains("line 14"));
         CHECK_THAT(msg, Catch::Contains("face 0"));
     }
+    SECTION("a data line holding 'vertex_index', which VTK rewrites wherever it is") {
+        // vtkPLY turns "0 0vertex_index 1" into "0 0vertex_indices": a word short, a crash.
+        write_text(dir + "/rewritten.ply",
+                   header.substr(0, header.size() - 6) + "0 0vertex_index 1\n" + faces);
+        const std::string msg =
+            input_error_message([&] { io::read_surface(dir + "/rewritten.ply"); });
+        CHECK_THAT(msg, Catch::Contains("rewritten.ply") && Catch::Contains("line 13") &&
+                            Catch::Contains("vertex 3"));
+        // The header property "vertex_index" still reads.
+        std::string named = header + faces;
+        named.replace(named.find("vertex_indices"), 14, "vertex_index");
+        write_text(dir + "/named.ply", named);
+        CHECK(io::read_surface(dir + "/named.ply").face_count() == 4);
+    }
     SECTION("an empty vertex line, a missing line, an element without a count") {
         write_text(dir + "/empty.ply", header.substr(0, header.size() - 6) + "\n\n" + faces);
         CHECK_THAT(input_error_message([&] { io::read_surface(dir + "/empty.ply"); }),
