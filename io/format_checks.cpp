@@ -41,6 +41,21 @@ bool parse_number(std::string_view token, T& value) {
     return ec == std::errc() && ptr == end;
 }
 
+// The unsigned integer of `size` (1..8) bytes at `data` in the given byte order.
+std::uint64_t unsigned_from_bytes(const char* data, std::size_t size, bool big_endian) {
+    std::uint64_t value = 0;
+    for (std::size_t b = 0; b < size; ++b)
+        value = (value << 8) | static_cast<unsigned char>(data[big_endian ? b : size - 1 - b]);
+    return value;
+}
+
+// The two's-complement integer of `size` (1..8) bytes at `data`.
+std::int64_t signed_from_bytes(const char* data, std::size_t size, bool big_endian) {
+    std::uint64_t value = unsigned_from_bytes(data, size, big_endian);
+    if (size < 8 && (value >> (8 * size - 1)) != 0) value |= ~std::uint64_t{0} << (8 * size);
+    return static_cast<std::int64_t>(value);
+}
+
 // --- PLY ---------------------------------------------------------------------------------
 
 // What VTK 9.1's PLY reader (vtkPLY, Greg Turk's ply.c) does with a file it should refuse,
@@ -309,16 +324,10 @@ private:
 
     // The integer of `type` at text_[at].
     long long integer_at(std::size_t at, const Type& type, bool big_endian) const {
-        std::uint64_t raw = 0;
-        for (std::size_t b = 0; b < type.bytes; ++b) {
-            const auto byte =
-                static_cast<unsigned char>(text_[at + (big_endian ? b : type.bytes - 1 - b)]);
-            raw = (raw << 8) | byte;
-        }
-        const std::uint64_t sign_bit = std::uint64_t{1} << (8 * type.bytes - 1);
-        if (type.is_signed && (raw & sign_bit) != 0)
-            return static_cast<long long>(raw) - static_cast<long long>(sign_bit << 1);
-        return static_cast<long long>(raw);
+        const char* data = text_.data() + at;
+        return type.is_signed
+                   ? signed_from_bytes(data, type.bytes, big_endian)
+                   : static_cast<long long>(unsigned_from_bytes(data, type.bytes, big_endian));
     }
 
     void check_binary_elements(bool big_endian) {
@@ -495,15 +504,10 @@ public:
         const std::size_t count = std::min<std::size_t>(data.size() / bytes, limit);
         const bool is_signed = type.front() == 'I';
         for (std::size_t i = 0; i < count; ++i) {
-            std::uint64_t v = 0;
-            for (std::size_t b = 0; b < bytes; ++b) {
-                const auto byte =
-                    static_cast<unsigned char>(data[i * bytes + (big_endian_ ? b : bytes - 1 - b)]);
-                v = (v << 8) | byte;
-            }
-            if (is_signed && bytes < 8 && (v >> (8 * bytes - 1)) != 0)
-                v |= ~std::uint64_t{0} << (8 * bytes);  // sign extension
-            values.push_back(static_cast<std::int64_t>(v));
+            const char* at = data.data() + i * bytes;
+            values.push_back(
+                is_signed ? signed_from_bytes(at, bytes, big_endian_)
+                          : static_cast<std::int64_t>(unsigned_from_bytes(at, bytes, big_endian_)));
         }
         return values;
     }
@@ -721,28 +725,19 @@ private:
     }
 
     std::uint64_t word_in(std::string_view bytes, std::size_t index) const {
-        std::uint64_t value = 0;
-        for (std::size_t b = 0; b < word_; ++b) {
-            const auto byte = static_cast<unsigned char>(
-                bytes[index * word_ + (big_endian_ ? b : word_ - 1 - b)]);
-            value = (value << 8) | byte;
-        }
-        return value;
+        return unsigned_from_bytes(bytes.data() + index * word_, word_, big_endian_);
     }
 
     // The header word at `at`, advancing `at`.
     std::uint64_t word(std::uint64_t& at, vtkXMLDataElement* e) {
         if (at > size_ || size_ - at < word_) fail(e, "has a header cut by the end of the file");
-        unsigned char bytes[8] = {};
+        char bytes[8] = {};
         in_.clear();
         in_.seekg(static_cast<std::streamoff>(at));
-        in_.read(reinterpret_cast<char*>(bytes), static_cast<std::streamsize>(word_));
+        in_.read(bytes, static_cast<std::streamsize>(word_));
         if (!in_) FM_THROW(InputError, in_quotes(path_) + ": read failed");
         at += word_;
-        std::uint64_t value = 0;
-        for (std::size_t b = 0; b < word_; ++b)
-            value = (value << 8) | bytes[big_endian_ ? b : word_ - 1 - b];
-        return value;
+        return unsigned_from_bytes(bytes, word_, big_endian_);
     }
 
     static bool is_base64(char c) {
