@@ -76,8 +76,7 @@ double tet_cost(const TetTopology& topo, const Tet& t, Objective objective) {
     // A tet on a poor input triangle keeps a skewness above 0.8 whatever is done around it (Eq. 1
     // follows the triangle's circumradius); judged by its skewness it would block every change
     // near it, so its dihedral angles alone count.
-    if (topo.has_poor_face(t)) return 1.0 - s.min_dihedral_deg / kRegularDihedralDeg;
-    return std::max(s.skewness, 1.0 - s.min_dihedral_deg / kRegularDihedralDeg);
+    return combined_cost(s, topo.has_poor_face(t));
 }
 
 void RefineOps::prepare_cache() const {
@@ -143,9 +142,7 @@ bool RefineOps::is_positive(std::int32_t t) const {
 double RefineOps::cost(std::int32_t t, Objective objective) const {
     const TetShape s = shape(t, objective == Objective::Combined);
     if (objective == Objective::Skewness) return s.skewness;
-    // As tet_cost.
-    if (topo_.has_poor_face(topo_.tet(t))) return 1.0 - s.min_dihedral_deg / kRegularDihedralDeg;
-    return std::max(s.skewness, 1.0 - s.min_dihedral_deg / kRegularDihedralDeg);
+    return combined_cost(s, topo_.has_poor_face(topo_.tet(t)));  // as tet_cost
 }
 
 /// §3.3.1: unconditional removal of interior nodes with small stars.

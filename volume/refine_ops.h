@@ -4,6 +4,7 @@
 // pass's node moves. Every change is validated with exact orientation tests and never crosses a
 // wall (boundary/interface face or region change). Sequential and deterministic.
 
+#include <algorithm>
 #include <array>
 #include <cstddef>
 #include <cstdint>
@@ -23,7 +24,8 @@ namespace frontmesh::volume {
 enum class Objective {
     Skewness,  ///< Eq. 1 (the paper's criterion)
     Combined,  ///< max(skewness, 1 - min dihedral / 70.53 deg): slivers and caps alike; on a
-               ///< poor input triangle (TetTopology::is_poor_face) the dihedral term alone
+               ///< poor input triangle (TetTopology::is_poor_face) the dihedral term alone;
+               ///< a tet under kSliverFloorDeg costs 1 more (combined_cost)
 };
 
 /// Skewness (Eq. 1) and smallest dihedral angle (degrees, when asked) of a tet; a nearly flat
@@ -35,8 +37,25 @@ struct TetShape {
 TetShape tet_shape(const double* a, const double* b, const double* c, const double* d,
                    bool dihedral);
 
-/// Cost of tet t (nodes of `topo`) under `objective`: 0 ideal, 1 degenerate.
+/// Cost of tet t (nodes of `topo`) under `objective`: 0 ideal, 1 degenerate (Combined: up to
+/// 2, see combined_cost).
 double tet_cost(const TetTopology& topo, const Tet& t, Objective objective);
+
+/// Smallest dihedral angle (degrees) under which the Combined objective ranks a tet behind
+/// every tet above it, whatever their skewness.
+inline constexpr double kSliverFloorDeg = 10.0;
+
+/// The Combined cost of a tet of shape `s` (dihedral angle measured); `poor_face`: it has a
+/// poor input triangle, and its dihedral term alone counts (its skewness stays high whatever
+/// is done). A sliver under kSliverFloorDeg costs 1 + that, more than any cap: otherwise a
+/// change that trades a 1 deg sliver for a cap of skewness 0.997 and 14 deg (the sliver
+/// rescue of insert_node) is undone at once by a move, flip or node removal that lowers the
+/// largest cost back to the sliver's 0.984 (natbrainlab near (17.8, -87.0, 97.9) mm).
+inline double combined_cost(const TetShape& s, bool poor_face) {
+    const double dihedral_cost = 1.0 - s.min_dihedral_deg / 70.528779365509308;  // arccos(1/3)
+    const double cost = poor_face ? dihedral_cost : std::max(s.skewness, dihedral_cost);
+    return s.min_dihedral_deg < kSliverFloorDeg ? 1.0 + cost : cost;
+}
 
 /// Counts of changes made.
 struct RefineCounts {

@@ -170,11 +170,10 @@ public:
             if (s.over > old_.over + (rescue_ ? kRescueExtraCaps : 0))
                 return s;  // never kept: not worth finishing
             s.min_dihedral = std::min(s.min_dihedral, shape.min_dihedral_deg);
-            const double dihedral_cost = 1.0 - shape.min_dihedral_deg / kRegularDihedralDeg;
-            s.max_cost = std::max(s.max_cost, objective_ == Objective::Skewness ? shape.skewness
-                                              : topo_.is_poor_face(f[0], f[1], f[2])
-                                                  ? dihedral_cost
-                                                  : std::max(shape.skewness, dihedral_cost));
+            s.max_cost = std::max(s.max_cost,
+                                  objective_ == Objective::Skewness
+                                      ? shape.skewness
+                                      : combined_cost(shape, topo_.is_poor_face(f[0], f[1], f[2])));
         }
         s.valid = true;
         return s;

@@ -120,10 +120,7 @@ std::pair<double, double> RefineOps::star_cost(std::int32_t v, const V3& p, Obje
         // The cost first: above `bound` the answer is +inf whether or not t is positive.
         const TetShape s = tet_shape(x[0], x[1], x[2], x[3], objective == Objective::Combined);
         double c = s.skewness;
-        if (objective == Objective::Combined) {
-            const double dihedral_cost = 1.0 - s.min_dihedral_deg / kRegularDihedralDeg;
-            c = topo_.has_poor_face(tt) ? dihedral_cost : std::max(s.skewness, dihedral_cost);
-        }
+        if (objective == Objective::Combined) c = combined_cost(s, topo_.has_poor_face(tt));
         if (c > bound || !positive_tet(x[0], x[1], x[2], x[3])) {
             worst = kInf;
             break;

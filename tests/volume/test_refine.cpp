@@ -524,9 +524,35 @@ TEST_CASE("Poor input triangles: the Combined cost of a tet on one is its dihedr
     const auto shape =
         volume::tet_shape(topo.xyz(t[0]), topo.xyz(t[1]), topo.xyz(t[2]), topo.xyz(t[3]), true);
     CHECK(shape.skewness > 0.8);
+    // Its dihedral term; 1 more, as it is under the sliver floor (10 deg).
+    REQUIRE(shape.min_dihedral_deg < volume::kSliverFloorDeg);
     CHECK(volume::tet_cost(topo, t, Objective::Combined) ==
-          Approx(1.0 - shape.min_dihedral_deg / 70.528779365509308));
+          Approx(2.0 - shape.min_dihedral_deg / 70.528779365509308));
     CHECK(volume::tet_cost(topo, t, Objective::Skewness) == Approx(shape.skewness));
+}
+
+TEST_CASE("The Combined cost ranks a sliver under 10 deg behind every cap", "[refine]") {
+    // A cap: node 3 just above the middle of triangle (0, 1, 2): skewness near 1, smallest
+    // dihedral angle well above 10 deg. A sliver: four nearly coplanar nodes in a square.
+    const double cap[4][3] = {{0, 0, 0}, {1, 0, 0}, {0.5, 0.866, 0}, {0.5, 0.289, 0.055}};
+    const double sliver[4][3] = {{0, 0, 0}, {1, 0, 0.02}, {1, 1, 0}, {0, 1, 0.02}};
+    const auto shape_of = [](const double(&x)[4][3]) {
+        volume::TetShape s = volume::tet_shape(x[0], x[1], x[2], x[3], true);
+        if (!volume::positive_tet(x[0], x[1], x[2], x[3]))
+            s = volume::tet_shape(x[0], x[2], x[1], x[3], true);
+        return s;
+    };
+    const volume::TetShape c = shape_of(cap), s = shape_of(sliver);
+    INFO("cap: skewness " << c.skewness << ", " << c.min_dihedral_deg << " deg; sliver: "
+                          << s.skewness << ", " << s.min_dihedral_deg << " deg");
+    REQUIRE(c.skewness > s.skewness);
+    REQUIRE(c.min_dihedral_deg > volume::kSliverFloorDeg);
+    REQUIRE(s.min_dihedral_deg < volume::kSliverFloorDeg);
+    CHECK(volume::combined_cost(c, false) <= 1.0);
+    CHECK(volume::combined_cost(s, false) > volume::combined_cost(c, false));
+    CHECK(volume::combined_cost(s, false) > 1.0);
+    // Without the floor the cap would cost more: its skewness is larger.
+    CHECK(c.skewness > 1.0 - s.min_dihedral_deg / 70.528779365509308);
 }
 
 TEST_CASE("Refine parameters are validated by key", "[refine]") {
