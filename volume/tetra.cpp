@@ -929,20 +929,37 @@ core::TetMesh tetra(const core::SurfaceNetwork& surface, const TetraParams& para
     const detail::RegionSink sink(ctx, ctx_mutex);
     std::size_t done = 0;
     tbb::parallel_for(std::size_t(0), labels.size(), [&](std::size_t r) {
-        // Two attempts at most: the rings of the closing rounds first, which give the better
-        // tets; where the region's front cannot be closed so, the cones first. In a layer
-        // thinner than h the rings put new points into ever smaller gaps (torture seed 8:
-        // 128 front triangles after the levels, 3,370 after eight rounds, which the cones
-        // could not fill; one round of cones alone closes the 128).
+        // Four attempts at most, each bounded: the rings of the closing rounds first, which
+        // give the better tets; where the region's front cannot be closed so, the cones
+        // first. In a layer thinner than h the rings put new points into ever smaller gaps
+        // (torture seed 8: 128 front triangles after the levels, 3,370 after eight rounds,
+        // which the cones could not fill; one round of cones alone closes the 128). Then the
+        // same with other choices of the front, where a cavity wrapped around an island is
+        // left that no cone fills (torture seed 466 after the curve pass of remesh smoothing:
+        // 450 front triangles, one cavity of Euler characteristic -2): the stretching alpha a
+        // third of the way to 1 (smaller elements, the front meets itself elsewhere), then two
+        // more local remeshings per node. Only a region that failed before gets them: every
+        // mesh made before is unchanged.
+        const std::array<detail::ClosingOrder, 4> orders{
+            detail::ClosingOrder::rings_first, detail::ClosingOrder::cones_first,
+            detail::ClosingOrder::cones_first, detail::ClosingOrder::cones_first};
+        std::array<TetraParams, 4> variants{params, params, params, params};
+        variants[2].stretching = 1.0 + (params.stretching - 1.0) / 3.0;
+        variants[3].max_remesh_per_node = params.max_remesh_per_node + 2;
         try {
-            try {
-                detail::RegionMesher mesher(surface, labels[r], params, sink);
-                results[r] = mesher.run(detail::ClosingOrder::rings_first, false);
-            } catch (const core::MeshingError& first) {
-                sink.info(std::string(first.what()) + "; meshing the region again, cones first");
-                detail::RegionMesher mesher(surface, labels[r], params, sink);
-                results[r] = mesher.run(detail::ClosingOrder::cones_first, true);
-                results[r].second_attempt = true;
+            for (std::size_t attempt = 0; attempt < variants.size(); ++attempt) {
+                const bool last = attempt + 1 == variants.size();
+                try {
+                    detail::RegionMesher mesher(surface, labels[r], variants[attempt], sink);
+                    results[r] = mesher.run(orders[attempt], last);
+                    results[r].attempt = static_cast<std::int32_t>(attempt);
+                    break;
+                } catch (const core::MeshingError& e) {
+                    if (last) throw;
+                    sink.info(std::string(e.what()) + "; meshing the region again (attempt " +
+                              std::to_string(attempt + 2) + " of " +
+                              std::to_string(variants.size()) + ")");
+                }
             }
         } catch (...) {
             errors[r] = std::current_exception();

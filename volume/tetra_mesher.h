@@ -69,8 +69,8 @@ struct RegionResult {
     std::int64_t remeshes = 0;
     std::int64_t closing_rounds = 0;
     std::int64_t closing_tets = 0;
-    std::int64_t cones = 0;       // cavities filled by the completion path
-    bool second_attempt = false;  // meshed with ClosingOrder::cones_first after a failure
+    std::int64_t cones = 0;    // cavities filled by the completion path
+    std::int32_t attempt = 0;  // 0: the first; more: meshed again after a failure (tetra())
     std::int32_t levels = 0;
     std::int64_t stat[kStatCount] = {};
 };

@@ -604,7 +604,7 @@ core::TetMesh merge_regions(const core::SurfaceNetwork& surface,
     mesh.region_out = surface.region_out;
     mesh.surface_vertices = static_cast<std::int32_t>(nv);
     std::int64_t remeshes = 0, closing_rounds = 0, closing_tets = 0, cones = 0, levels = 0;
-    std::int64_t second_attempts = 0;
+    std::int64_t second_attempts = 0, later_attempts = 0;
     std::int64_t stat[kStatCount] = {};
     for (const RegionResult& res : results) {
         const std::int32_t nl = static_cast<std::int32_t>(res.level.size());
@@ -627,7 +627,8 @@ core::TetMesh merge_regions(const core::SurfaceNetwork& surface,
         closing_rounds += res.closing_rounds;
         closing_tets += res.closing_tets;
         cones += res.cones;
-        second_attempts += res.second_attempt;
+        second_attempts += res.attempt > 0 ? 1 : 0;
+        later_attempts += res.attempt > 1 ? 1 : 0;
         levels = std::max<std::int64_t>(levels, res.levels);
         for (int i = 0; i < kStatCount; ++i) stat[i] += res.stat[i];
     }
@@ -641,6 +642,7 @@ core::TetMesh merge_regions(const core::SurfaceNetwork& surface,
     ctx.count("tetra.closing_tets", static_cast<double>(closing_tets));
     ctx.count("tetra.completion_cones", static_cast<double>(cones));
     ctx.count("tetra.regions_meshed_twice", static_cast<double>(second_attempts));
+    ctx.count("tetra.regions_meshed_with_other_spacing", static_cast<double>(later_attempts));
     ctx.count("tetra.max_levels", static_cast<double>(levels));
     ctx.info("tetra: " + std::to_string(mesh.tet_count()) + " tets, " +
              std::to_string(mesh.node_count()) + " nodes, " + std::to_string(results.size()) +
