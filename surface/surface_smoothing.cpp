@@ -274,13 +274,7 @@ public:
     // star (Zhou & Shimada's bisector move settles on a compromise its ring allows; a
     // direct search lifts a cap whose vertex sits next to a curve edge). Returns the moves.
     std::size_t worst_pass(double below_deg) {
-        std::vector<std::int32_t> candidates;
-        for (const auto& t : s_.faces)
-            if (min_angle(t) < below_deg)
-                for (const auto v : t)
-                    if (kind_[std::size_t(v)] == Kind::Free) candidates.push_back(v);
-        std::sort(candidates.begin(), candidates.end());
-        candidates.erase(std::unique(candidates.begin(), candidates.end()), candidates.end());
+        const std::vector<std::int32_t> candidates = vertices_of_poor_faces(below_deg, Kind::Free);
         std::size_t moves = 0;
         for (const std::int32_t v : candidates) {
             star_normals(v, normals_);
@@ -306,13 +300,7 @@ public:
     // (below their value before, capped at `guard_deg`), which the earlier passes raised.
     // Returns the moves.
     std::size_t curve_pass(double below_deg, double guard_deg) {
-        std::vector<std::int32_t> candidates;
-        for (const auto& t : s_.faces)
-            if (min_angle(t) < below_deg)
-                for (const auto v : t)
-                    if (kind_[std::size_t(v)] == Kind::Curve) candidates.push_back(v);
-        std::sort(candidates.begin(), candidates.end());
-        candidates.erase(std::unique(candidates.begin(), candidates.end()), candidates.end());
+        const std::vector<std::int32_t> candidates = vertices_of_poor_faces(below_deg, Kind::Curve);
         std::size_t moves = 0;
         for (const std::int32_t v : candidates) {
             star_normals(v, normals_);
@@ -329,6 +317,19 @@ public:
             if (curve_search(v, {0.025, 0.06, 0.1, 0.15, 0.25, 0.35}, better)) ++moves;
         }
         return moves;
+    }
+
+    // The vertices of kind `kind` of the faces whose smallest angle is under `below_deg`, in
+    // id order, each once (the candidates of the worst and curve passes).
+    std::vector<std::int32_t> vertices_of_poor_faces(double below_deg, Kind kind) const {
+        std::vector<std::int32_t> vertices;
+        for (const auto& t : s_.faces)
+            if (min_angle(t) < below_deg)
+                for (const auto v : t)
+                    if (kind_[std::size_t(v)] == kind) vertices.push_back(v);
+        std::sort(vertices.begin(), vertices.end());
+        vertices.erase(std::unique(vertices.begin(), vertices.end()), vertices.end());
+        return vertices;
     }
 
     std::size_t flip_pass() {
