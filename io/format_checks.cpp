@@ -14,9 +14,13 @@
 
 #include <vtkCallbackCommand.h>
 #include <vtkCommand.h>
+#include <vtkLZ4DataCompressor.h>
+#include <vtkLZMADataCompressor.h>
 #include <vtkNew.h>
+#include <vtkSmartPointer.h>
 #include <vtkXMLDataElement.h>
 #include <vtkXMLDataParser.h>
+#include <vtkZLibDataCompressor.h>
 
 #include "pipeline/core/error.h"
 
@@ -405,19 +409,44 @@ std::string_view attribute(vtkXMLDataElement* e, const char* name) {
 // parse (both found by fuzz_surface and fuzz_mesh).
 class XmlData {
 public:
-    XmlData(const std::string& path, vtkXMLDataElement* root, std::int64_t appended)
-        : path_(path), in_(path, std::ios::binary), appended_(appended) {
+    XmlData(const std::string& path, vtkXMLDataParser* parser, std::int64_t appended)
+        : path_(path),
+          in_(path, std::ios::binary),
+          parser_in_(path, std::ios::binary),
+          parser_(parser),
+          appended_(appended) {
+        // The parser reads array data from a stream of its own (its file's is closed).
+        parser->SetStream(&parser_in_);
+        vtkXMLDataElement* root = parser->GetRootElement();
         word_ = attribute(root, "header_type") == "UInt64" ? 8 : 4;
         big_endian_ = attribute(root, "byte_order") == "BigEndian";
         compressed_ = root->GetAttribute("compressor") != nullptr;
+        // The compressors VTK's reader knows; for another name it reads no binary data.
+        const std::string_view compressor = attribute(root, "compressor");
+        if (compressor == "vtkZLibDataCompressor")
+            parser->SetCompressor(vtkSmartPointer<vtkZLibDataCompressor>::New());
+        else if (compressor == "vtkLZ4DataCompressor")
+            parser->SetCompressor(vtkSmartPointer<vtkLZ4DataCompressor>::New());
+        else if (compressor == "vtkLZMADataCompressor")
+            parser->SetCompressor(vtkSmartPointer<vtkLZMADataCompressor>::New());
         in_.seekg(0, std::ios::end);
         size_ = static_cast<std::uint64_t>(in_.tellg());
     }
 
+    ~XmlData() { parser_->SetStream(nullptr); }
+    XmlData(const XmlData&) = delete;
+    XmlData& operator=(const XmlData&) = delete;
+
     /// Checks that the array `e` holds at least `values` values of its type, whatever its
-    /// format; the headers of its binary data are checked on the way.
+    /// format (for a String array: at most `values` strings); the headers of its binary
+    /// data are checked on the way.
     void check_array(vtkXMLDataElement* e, std::uint64_t values) {
         const std::string_view format = checked_format(e);
+        if (attribute(e, "type") == "String") {
+            check_headers(e);
+            check_strings(e, values);
+            return;
+        }
         const std::size_t bytes = xml_type_bytes(attribute(e, "type"));
         if (format == "ascii") {
             check_ascii(e, values);
@@ -435,6 +464,67 @@ public:
         if (held && *held < values * bytes)
             fail(e, "holds " + std::to_string(*held) + " bytes; its piece needs " +
                         std::to_string(values) + " values of " + std::to_string(bytes) + " bytes");
+    }
+
+    /// Checks that the String array `e` holds at most `values` strings. VTK 9.1 reads the
+    /// strings one after another, each ended by a NUL, into an array of `values` slots and
+    /// writes past its end when there are more (heap-buffer-overflow in
+    /// vtkXMLReader::ReadArrayValues, found by fuzz_surface: 3 NULs for 1 tuple). Ascii
+    /// values are character codes. Bounded by the array's data, read in chunks.
+    void check_strings(vtkXMLDataElement* e, std::uint64_t values) {
+        const std::string_view format = checked_format(e);
+        std::uint64_t strings = 0;
+        auto count = [&](long long code) {
+            if (code == 0) ++strings;
+            if (strings > values)
+                fail(e, "holds more than " + std::to_string(values) +
+                            " strings (NUL-ended), its count");
+        };
+        if (format == "ascii") {
+            std::uint64_t at = 0;
+            if (!seek_inline_data(e, at)) return;
+            std::uint64_t index = 0;
+            std::string token;
+            char c = 0;
+            auto take = [&] {
+                long long code = 0;
+                if (!parse_number(std::string_view(token), code) || code < -128 || code > 255)
+                    fail(e, "value " + std::to_string(index) + " '" + token +
+                                "' is not a character code (-128 to 255)");
+                count(code);
+                ++index;
+                token.clear();
+            };
+            // One character per pass, up to the element's end.
+            while (in_.get(c) && c != '<') {
+                if (!std::isspace(static_cast<unsigned char>(c))) {
+                    token.push_back(c);
+                    if (token.size() > 64) fail(e, "has a value longer than 64 characters");
+                } else if (!token.empty()) {
+                    take();
+                }
+            }
+            if (!token.empty()) take();
+            return;
+        }
+        std::uint64_t offset = 0;
+        if (format == "appended" &&
+            (appended_ <= 0 || !parse_number(attribute(e, "offset"), offset)))
+            return;  // the reader reports it
+        if (compressed_ && parser_->GetCompressor() == nullptr) return;
+        // VTK's own parser reads the bytes (inflating them if need be), a chunk per pass;
+        // each pass reads a full chunk or ends the loop.
+        constexpr std::size_t kChunk = std::size_t{1} << 16;
+        std::vector<unsigned char> bytes(kChunk);
+        for (std::uint64_t start = 0;; start += kChunk) {
+            const std::size_t got =
+                format == "binary"
+                    ? parser_->ReadInlineData(e, 0, bytes.data(), start, kChunk, VTK_UNSIGNED_CHAR)
+                    : parser_->ReadAppendedData(static_cast<vtkTypeInt64>(offset), bytes.data(),
+                                                start, kChunk, VTK_UNSIGNED_CHAR);
+            for (std::size_t i = 0; i < got && i < kChunk; ++i) count(bytes[i]);
+            if (got < kChunk) break;
+        }
     }
 
     /// Checks the data headers of an array whose count its Piece does not fix (a cell
@@ -612,15 +702,39 @@ private:
         if (chars.size() < need || !decode_base64(chars, bytes))
             fail(e, "has no base64 header of " + std::to_string(words * word_) + " bytes");
         // The rest up to the element's end is base64 too: VTK dereferences null when its
-        // decoding fails (a ',' in it, found by fuzz_surface). One character per pass.
-        while (in_.get(c) && c != '<')
-            if (!std::isspace(static_cast<unsigned char>(c)) && c != '=' && !is_base64(c))
-                fail(e, "holds '" + std::string(1, c) + "', which is not base64");
+        // decoding fails (a ',' in it, found by fuzz_surface) and when a '=' ends the
+        // stream before the data it announces (found by fuzz_surface: "EAAAAA=AAAAC...").
+        // Padding is one or two '=' closing the last group of four. One character per pass.
+        // Compressed, the header (three words and one per block) is a stream of its own
+        // and may end in padding too; the data's stream follows.
         const std::uint64_t first = word_in(bytes, 0);
-        if (!compressed_) return first;
-        // Each block needs a header word and at least a byte of data.
-        if (first > size_ - std::min(size_, at))
+        if (compressed_ && first > size_ - std::min(size_, at))
             fail(e, "announces " + std::to_string(first) + " compressed blocks");
+        const std::uint64_t header_end = compressed_ ? 4 * (((3 + first) * word_ + 2) / 3) : 0;
+        std::uint64_t position = 0;  // of the character in the stream, white space skipped
+        std::uint64_t padding = 0;
+        auto take = [&](char ch) {
+            if (position == header_end) padding = 0;
+            if (ch == '=') {
+                if (position % 4 < 2 || padding == 2)
+                    fail(e, "has '=' at base64 character " + std::to_string(position) +
+                                ", which is not padding at the end of its data");
+                ++padding;
+            } else if (!is_base64(ch)) {
+                fail(e, "holds '" + std::string(1, ch) + "', which is not base64");
+            } else if (padding > 0) {
+                fail(e, "has base64 data after its '=' padding at character " +
+                            std::to_string(position));
+            }
+            ++position;
+        };
+        for (const char ch : chars) take(ch);
+        while (in_.get(c) && c != '<')
+            if (!std::isspace(static_cast<unsigned char>(c))) take(c);
+        if (padding > 0 && position % 4 != 0)
+            fail(e, "has '=' padding that does not close a group of four base64 characters");
+        if (!compressed_) return first;
+        // Each block needs a header word and at least a byte of data (checked above).
         check_block_sizes(e, first, word_in(bytes, 1), word_in(bytes, 2));
         return uncompressed(first, word_in(bytes, 1), word_in(bytes, 2));
     }
@@ -772,6 +886,8 @@ private:
 
     std::string path_;
     std::ifstream in_;
+    std::ifstream parser_in_;
+    vtkXMLDataParser* parser_;
     std::int64_t appended_;
     std::uint64_t size_ = 0;
     std::size_t word_ = 4;
@@ -963,7 +1079,7 @@ void check_vtk_xml(const std::string& path) {
             attribute(e, "encoding") == "raw")
             appended = parser->GetAppendedDataPosition();
     }
-    XmlData data(path, root, appended);
+    XmlData data(path, parser, appended);
     stack = {root};
     while (!stack.empty()) {
         vtkXMLDataElement* element = stack.back();

@@ -540,6 +540,7 @@ SurfaceNetwork read_off(const std::string& path) {
     if (!in) FM_THROW(InputError, quoted(path) + ": cannot open");
     std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
     if (in.bad()) FM_THROW(InputError, quoted(path) + ": read failed");
+    const long long file_bytes = static_cast<long long>(text.size());
     TokenLines lines(std::move(text));
 
     auto fail = [&](const std::string& what) {
@@ -558,6 +559,13 @@ SurfaceNetwork read_off(const std::string& path) {
         n_vertices > std::numeric_limits<std::int32_t>::max() ||
         n_faces > std::numeric_limits<std::int32_t>::max())
         fail("expected vertex and face counts");
+    // A vertex line takes at least 6 bytes ("0 0 0\n") and a face line 8 ("3 0 1 2\n"), the
+    // last line perhaps without its newline: counts beyond that cannot be in the file, and
+    // reserving for them took 9 GB (398568147 vertices, found by fuzz_surface).
+    if (6 * n_vertices + 8 * n_faces > file_bytes + 1)
+        fail("announces " + std::to_string(n_vertices) + " vertices and " +
+             std::to_string(n_faces) + " faces; the file's " + std::to_string(file_bytes) +
+             " bytes cannot hold them");
 
     SurfaceNetwork surface;
     surface.xyz.reserve(3 * static_cast<std::size_t>(n_vertices));

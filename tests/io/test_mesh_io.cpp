@@ -677,6 +677,13 @@ TEST_CASE("read_surface rejects bad input with InputError naming the file", "[io
         const std::string other = dir + "/other.off";
         write_text(other, "COFF\n3 1 0\n0 0 0 1 1 1 1\n1 0 0 1 1 1 1\n0 1 0 1 1 1 1\n3 0 1 2\n");
         CHECK_THAT(input_error_message([&] { io::read_surface(other); }), Catch::Contains("OFF"));
+        // counts the file cannot hold are refused before anything is reserved for them
+        // (fuzz_surface: 398568147 vertices took 9 GB)
+        const std::string huge = dir + "/huge.off";
+        write_text(huge, "OFF\n398568147 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n");
+        CHECK_THAT(input_error_message([&] { io::read_surface(huge); }),
+                   Catch::Contains(huge) && Catch::Contains("398568147 vertices") &&
+                       Catch::Contains("cannot hold them"));
     }
     SECTION("no triangles") {
         const std::string path = dir + "/empty.off";
@@ -999,6 +1006,15 @@ TEST_CASE("read_surface refuses VTK XML arrays that do not hold what their piece
         write_text(dir + "/comma.vtp", bad);
         CHECK_THAT(input_error_message([&] { io::read_surface(dir + "/comma.vtp"); }),
                    Catch::Contains("Points") && Catch::Contains("not base64"));
+        // a '=' inside the header ends VTK's base64 stream early: it dereferenced null
+        // (found by fuzz_surface in CI's smoke run)
+        bad = text;
+        const std::size_t data =
+            bad.find_first_not_of(" \n", text.find('>', text.find("Name=\"Points\"")) + 1);
+        bad[data + 6] = '=';
+        write_text(dir + "/padding.vtp", bad);
+        CHECK_THAT(input_error_message([&] { io::read_surface(dir + "/padding.vtp"); }),
+                   Catch::Contains("Points") && Catch::Contains("after its '=' padding"));
     }
 }
 
@@ -1041,6 +1057,66 @@ TEST_CASE("read_surface refuses cell offsets beyond the connectivity", "[io]") {
     CHECK_THAT(input_error_message([&] { io::read_surface(dir + "/huge.vtp"); }),
                Catch::Contains("huge.vtp") && Catch::Contains("Polys offsets value") &&
                    Catch::Contains("999999999") && Catch::Contains("connectivity holds"));
+}
+
+// VTK 9.1 writes past the end of a String array that holds more NUL-ended strings than its
+// tuples (heap-buffer-overflow in vtkXMLReader::ReadArrayValues, found by fuzz_surface);
+// String arrays as VTK writes them, in every layout, still read.
+TEST_CASE("read_surface refuses VTK XML String arrays with more strings than tuples", "[io]") {
+    const std::string dir = fixtures::temp_dir("vtp_strings");
+    const SurfaceNetwork net = two_region_network();
+    enum class Mode { Ascii, Binary, BinaryCompressed, RawAppended, RawAppendedCompressed };
+    auto written = [&](Mode mode, const std::vector<std::string>& strings) {
+        const std::string path = dir + "/mode" + std::to_string(int(mode)) + ".vtp";
+        vtkSmartPointer<vtkPolyData> poly = to_polydata(net);
+        vtkNew<vtkStringArray> stage;
+        stage->SetName("stage");
+        for (const std::string& text : strings) stage->InsertNextValue(text);
+        poly->GetFieldData()->AddArray(stage);
+        vtkNew<vtkXMLPolyDataWriter> writer;
+        writer->SetInputData(poly);
+        writer->SetFileName(path.c_str());
+        if (mode == Mode::Ascii) writer->SetDataModeToAscii();
+        if (mode == Mode::Binary || mode == Mode::BinaryCompressed) writer->SetDataModeToBinary();
+        if (mode == Mode::RawAppended || mode == Mode::RawAppendedCompressed) {
+            writer->SetDataModeToAppended();
+            writer->EncodeAppendedDataOff();
+        }
+        if (mode == Mode::Binary || mode == Mode::RawAppended) writer->SetCompressorTypeToNone();
+        REQUIRE(writer->Write() == 1);
+        return path;
+    };
+    const std::vector<std::string> strings = {"repair", "", std::string(70000, 'x'), "tetra"};
+    for (const Mode mode : {Mode::Ascii, Mode::Binary, Mode::BinaryCompressed, Mode::RawAppended,
+                            Mode::RawAppendedCompressed}) {
+        INFO("mode " << int(mode));
+        CHECK(io::read_surface(written(mode, strings)).face_count() == net.face_count());
+        // the same file claiming one tuple fewer than its strings
+        std::ifstream in(written(mode, strings), std::ios::binary);
+        std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+        const std::string tuples = "NumberOfTuples=\"4\"";
+        const std::size_t at = text.find(tuples);
+        REQUIRE(at != std::string::npos);
+        text.replace(at, tuples.size(), "NumberOfTuples=\"3\"");
+        write_text(dir + "/fewer.vtp", text);
+        CHECK_THAT(input_error_message([&] { io::read_surface(dir + "/fewer.vtp"); }),
+                   Catch::Contains("fewer.vtp") && Catch::Contains("'stage'") &&
+                       Catch::Contains("more than 3 strings"));
+    }
+    // ascii: one more NUL, and a code that is no character (VTK kept its low byte: a NUL)
+    std::ifstream in(written(Mode::Ascii, {"re"}), std::ios::binary);
+    const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    const std::size_t at = text.find("114 101 0");
+    REQUIRE(at != std::string::npos);
+    for (const std::string& codes : {std::string("114 0 0"), std::string("114 512 0")}) {
+        std::string bad = text;
+        bad.replace(at, 9, codes);
+        write_text(dir + "/codes.vtp", bad);
+        CHECK_THAT(input_error_message([&] { io::read_surface(dir + "/codes.vtp"); }),
+                   Catch::Contains("codes.vtp") && Catch::Contains("'stage'") &&
+                       Catch::Contains(codes == "114 0 0" ? "more than 1 strings"
+                                                          : "'512' is not a character code"));
+    }
 }
 
 TEST_CASE("write_diagnostic_vtu writes lines, triangles and tets with kind and what", "[io]") {
