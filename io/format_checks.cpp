@@ -508,8 +508,9 @@ public:
             return;
         }
         std::uint64_t offset = 0;
-        if (format == "appended" &&
-            (appended_ <= 0 || !parse_number(attribute(e, "offset"), offset)))
+        // Appended data raw or base64: the parser knows the encoding.
+        if (format == "appended" && (parser_->GetAppendedDataPosition() <= 0 ||
+                                     !parse_number(attribute(e, "offset"), offset)))
             return;  // the reader reports it
         if (compressed_ && parser_->GetCompressor() == nullptr) return;
         // VTK's own parser reads the bytes (inflating them if need be), a chunk per pass;

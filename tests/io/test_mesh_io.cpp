@@ -1065,7 +1065,14 @@ TEST_CASE("read_surface refuses cell offsets beyond the connectivity", "[io]") {
 TEST_CASE("read_surface refuses VTK XML String arrays with more strings than tuples", "[io]") {
     const std::string dir = fixtures::temp_dir("vtp_strings");
     const SurfaceNetwork net = two_region_network();
-    enum class Mode { Ascii, Binary, BinaryCompressed, RawAppended, RawAppendedCompressed };
+    enum class Mode {
+        Ascii,
+        Binary,
+        BinaryCompressed,
+        RawAppended,
+        RawAppendedCompressed,
+        Base64Appended
+    };
     auto written = [&](Mode mode, const std::vector<std::string>& strings) {
         const std::string path = dir + "/mode" + std::to_string(int(mode)) + ".vtp";
         vtkSmartPointer<vtkPolyData> poly = to_polydata(net);
@@ -1082,13 +1089,14 @@ TEST_CASE("read_surface refuses VTK XML String arrays with more strings than tup
             writer->SetDataModeToAppended();
             writer->EncodeAppendedDataOff();
         }
+        if (mode == Mode::Base64Appended) writer->SetDataModeToAppended();
         if (mode == Mode::Binary || mode == Mode::RawAppended) writer->SetCompressorTypeToNone();
         REQUIRE(writer->Write() == 1);
         return path;
     };
     const std::vector<std::string> strings = {"repair", "", std::string(70000, 'x'), "tetra"};
     for (const Mode mode : {Mode::Ascii, Mode::Binary, Mode::BinaryCompressed, Mode::RawAppended,
-                            Mode::RawAppendedCompressed}) {
+                            Mode::RawAppendedCompressed, Mode::Base64Appended}) {
         INFO("mode " << int(mode));
         CHECK(io::read_surface(written(mode, strings)).face_count() == net.face_count());
         // the same file claiming one tuple fewer than its strings
