@@ -9,6 +9,7 @@
 #include <limits>
 #include <map>
 #include <optional>
+#include <set>
 #include <string_view>
 #include <vector>
 
@@ -1056,18 +1057,28 @@ void check_vtk_xml(const std::string& path) {
         vtkXMLDataElement* element = stack.back();
         stack.pop_back();
         const std::string_view name = element->GetName() ? element->GetName() : "";
-        if (name == "DataArray" || name == "Array") {
-            const char* type = element->GetAttribute("type");
-            if (!is_known_xml_type(type)) {
-                const char* array = element->GetAttribute("Name");
-                FM_THROW(InputError, in_quotes(path) + ": the " + std::string(name) + " '" +
-                                         (array ? array : "(no name)") + "' has type '" +
-                                         (type ? type : "") +
-                                         "'; VTK knows Int8..UInt64, Float32, Float64 and String");
-            }
-        }
-        for (int i = 0; i < element->GetNumberOfNestedElements(); ++i)
+        auto check_type = [&](vtkXMLDataElement* e) {
+            const char* type = e->GetAttribute("type");
+            if (is_known_xml_type(type)) return;
+            const char* array = e->GetAttribute("Name");
+            FM_THROW(InputError, in_quotes(path) + ": the " +
+                                     std::string(e->GetName() ? e->GetName() : "") + " '" +
+                                     (array ? array : "(no name)") + "' has type '" +
+                                     (type ? type : "") +
+                                     "'; VTK knows Int8..UInt64, Float32, Float64 and String");
+        };
+        if (name == "DataArray" || name == "Array") check_type(element);
+        // VTK reads every element inside these as an array, whatever its name: one without
+        // a type dereferenced null in ReadXMLInformation (found by fuzz_mesh: "<DatAar
+        // aytrype=...>" in FieldData).
+        static const std::set<std::string_view> containers = {"FieldData", "PointData", "CellData",
+                                                              "Points",    "Cells",     "Verts",
+                                                              "Lines",     "Strips",    "Polys"};
+        const bool container = containers.count(name) > 0;
+        for (int i = 0; i < element->GetNumberOfNestedElements(); ++i) {
+            if (container) check_type(element->GetNestedElement(i));
             stack.push_back(element->GetNestedElement(i));
+        }
     }
     // The headers of every array's binary data, wherever it is; then the data of each
     // Piece's arrays, and of the field arrays, against their counts. The dataset is read

@@ -909,6 +909,16 @@ TEST_CASE("read_tet_mesh and read_surface refuse a VTK XML array of unknown type
     const std::string msg = input_error_message([&] { frontmesh::io::read_tet_mesh(path); });
     CHECK_THAT(msg, Catch::Contains("mesh.vtu") && Catch::Contains("type 'Int10'"));
     CHECK_THROWS_AS(frontmesh::io::read_surface(path), InputError);
+    // an element of another name and no type inside FieldData: VTK reads it as an array and
+    // dereferenced null (found by fuzz_mesh)
+    text.replace(at, 12, "typo=\"Int32\"");
+    const std::size_t tag = text.rfind("<DataArray", at);
+    REQUIRE(tag != std::string::npos);
+    text.replace(tag, 10, "<DatAarray");
+    write_text(path, text);
+    CHECK_THAT(input_error_message([&] { frontmesh::io::read_tet_mesh(path); }),
+               Catch::Contains("mesh.vtu") && Catch::Contains("DatAarray") &&
+                   Catch::Contains("has type ''"));
 }
 
 // Found by fuzz_mesh (issue 21): VTK's XML reader divides by the block size of a compressed
