@@ -1028,26 +1028,42 @@ TEST_CASE("read_surface refuses VTK XML arrays that do not hold what their piece
     }
 }
 
+/// The layouts of VTK's XML writer: ascii, inline base64 with or without zlib, raw appended
+/// with or without zlib, base64 appended (zlib).
+enum class Mode {
+    Ascii,
+    Binary,
+    BinaryCompressed,
+    RawAppended,
+    RawAppendedCompressed,
+    Base64Appended
+};
+
+/// Writes `poly` to `path` in the layout `mode`; `path`.
+static std::string write_vtp(vtkPolyData* poly, const std::string& path, Mode mode) {
+    vtkNew<vtkXMLPolyDataWriter> writer;
+    writer->SetInputData(poly);
+    writer->SetFileName(path.c_str());
+    if (mode == Mode::Ascii) writer->SetDataModeToAscii();
+    if (mode == Mode::Binary || mode == Mode::BinaryCompressed) writer->SetDataModeToBinary();
+    if (mode == Mode::RawAppended || mode == Mode::RawAppendedCompressed ||
+        mode == Mode::Base64Appended)
+        writer->SetDataModeToAppended();
+    if (mode == Mode::RawAppended || mode == Mode::RawAppendedCompressed)
+        writer->EncodeAppendedDataOff();
+    if (mode == Mode::Binary || mode == Mode::RawAppended) writer->SetCompressorTypeToNone();
+    REQUIRE(writer->Write() == 1);
+    return path;
+}
+
 TEST_CASE("read_surface refuses cell offsets beyond the connectivity", "[io]") {
     // VTK allocates as many connectivity values as the last offset says (999999999 took 8 GB
     // and 13 s under ASan, found by fuzz_mesh); every written layout still reads.
     const std::string dir = frontmesh::fixtures::temp_dir("vtp_offsets");
     const SurfaceNetwork net = two_region_network();
-    enum class Mode { Ascii, Binary, BinaryCompressed, RawAppended, RawAppendedCompressed };
     auto written = [&](Mode mode) {
-        const std::string path = dir + "/mode" + std::to_string(int(mode)) + ".vtp";
-        vtkNew<vtkXMLPolyDataWriter> writer;
-        writer->SetInputData(to_polydata(net));
-        writer->SetFileName(path.c_str());
-        if (mode == Mode::Ascii) writer->SetDataModeToAscii();
-        if (mode == Mode::Binary || mode == Mode::BinaryCompressed) writer->SetDataModeToBinary();
-        if (mode == Mode::RawAppended || mode == Mode::RawAppendedCompressed) {
-            writer->SetDataModeToAppended();
-            writer->EncodeAppendedDataOff();
-        }
-        if (mode == Mode::Binary || mode == Mode::RawAppended) writer->SetCompressorTypeToNone();
-        REQUIRE(writer->Write() == 1);
-        return path;
+        return write_vtp(to_polydata(net), dir + "/mode" + std::to_string(int(mode)) + ".vtp",
+                         mode);
     };
     for (const Mode mode : {Mode::Ascii, Mode::Binary, Mode::BinaryCompressed, Mode::RawAppended,
                             Mode::RawAppendedCompressed}) {
@@ -1075,34 +1091,13 @@ TEST_CASE("read_surface refuses cell offsets beyond the connectivity", "[io]") {
 TEST_CASE("read_surface refuses VTK XML String arrays with more strings than tuples", "[io]") {
     const std::string dir = fixtures::temp_dir("vtp_strings");
     const SurfaceNetwork net = two_region_network();
-    enum class Mode {
-        Ascii,
-        Binary,
-        BinaryCompressed,
-        RawAppended,
-        RawAppendedCompressed,
-        Base64Appended
-    };
     auto written = [&](Mode mode, const std::vector<std::string>& strings) {
-        const std::string path = dir + "/mode" + std::to_string(int(mode)) + ".vtp";
         vtkSmartPointer<vtkPolyData> poly = to_polydata(net);
         vtkNew<vtkStringArray> stage;
         stage->SetName("stage");
         for (const std::string& text : strings) stage->InsertNextValue(text);
         poly->GetFieldData()->AddArray(stage);
-        vtkNew<vtkXMLPolyDataWriter> writer;
-        writer->SetInputData(poly);
-        writer->SetFileName(path.c_str());
-        if (mode == Mode::Ascii) writer->SetDataModeToAscii();
-        if (mode == Mode::Binary || mode == Mode::BinaryCompressed) writer->SetDataModeToBinary();
-        if (mode == Mode::RawAppended || mode == Mode::RawAppendedCompressed) {
-            writer->SetDataModeToAppended();
-            writer->EncodeAppendedDataOff();
-        }
-        if (mode == Mode::Base64Appended) writer->SetDataModeToAppended();
-        if (mode == Mode::Binary || mode == Mode::RawAppended) writer->SetCompressorTypeToNone();
-        REQUIRE(writer->Write() == 1);
-        return path;
+        return write_vtp(poly, dir + "/mode" + std::to_string(int(mode)) + ".vtp", mode);
     };
     const std::vector<std::string> strings = {"repair", "", std::string(70000, 'x'), "tetra"};
     for (const Mode mode : {Mode::Ascii, Mode::Binary, Mode::BinaryCompressed, Mode::RawAppended,
