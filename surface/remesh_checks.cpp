@@ -101,7 +101,21 @@ RegionChecks check_regions(const core::SurfaceNetwork& bg, const core::SurfaceNe
     for (const auto& c : core::check_region_boundaries(out)) {
         if (!c.is_closed() || !c.is_oriented() || c.nonmanifold_edges > 0) {
             const std::vector<std::int32_t> bad = edges_not_two_faces(out, et_of_out(), c.region);
-            if (!last_round) {
+            if (!last_round && RetryPolicy::late(round)) {
+                // Late: finer sizes would start new stalls; the patches of the faces at the
+                // bad edges (or, with every edge in order, all of the region's patches) keep
+                // their background triangles, as a late stall does.
+                std::vector<std::int32_t> faces;
+                for (const std::int32_t e : bad)
+                    for (auto k = et_of_out().face_offsets[std::size_t(e)];
+                         k < et_of_out().face_offsets[std::size_t(e) + 1]; ++k)
+                        faces.push_back(et_of_out().edge_faces[std::size_t(k)]);
+                if (bad.empty())
+                    for (std::size_t f = 0; f < out.face_count(); ++f)
+                        if (out.region_in[f] == c.region || out.region_out[f] == c.region)
+                            faces.push_back(static_cast<std::int32_t>(f));
+                retry.on_bad_faces(faces, out, face_patch, round);
+            } else if (!last_round) {
                 // Two patches joined the same two curve points by an inner edge (a short
                 // curve between sharp corners): meshed again with finer curves there.
                 std::vector<Eigen::Vector3d> midpoints;
@@ -112,9 +126,13 @@ RegionChecks check_regions(const core::SurfaceNetwork& bg, const core::SurfaceNe
                 // than h closed on the same few curve points, or turned inward): no edge to
                 // name, so the region's patches are meshed finer as a whole.
                 if (bad.empty()) retry.on_collapsed_region(features, c.region);
+            }
+            if (!last_round) {
                 ctx.warn("remesh: region " + std::to_string(c.region) +
-                         " is not a closed 2-manifold after the front; meshing again with half the "
-                         "size there");
+                         " is not a closed 2-manifold after the front; " +
+                         (RetryPolicy::late(round)
+                              ? "its patches there keep their background triangles"
+                              : "meshing again with half the size there"));
                 retry.note("region " + std::to_string(c.region) + " was not a closed 2-manifold");
                 result.again = true;
                 break;
@@ -138,7 +156,10 @@ RegionChecks check_regions(const core::SurfaceNetwork& bg, const core::SurfaceNe
         ctx.count("remesh.volume_change_percent.region_" + std::to_string(c.region), change);
         const double limit = params.max_volume_change_percent;
         if (limit > 0.0 && std::abs(change) > limit) {
-            if (!last_round && !retry.frugal()) {
+            // Late rounds do not rescale: new sizes there would start new stalls in the
+            // rounds meant to settle them (inia19, jhu189: a late rescale of many patches
+            // stalled 24 of them again); preserve_volumes corrects what is left.
+            if (!RetryPolicy::late(round) && !retry.frugal()) {
                 retry.on_volume_change(features, c.region, change, limit);
                 result.rescaled.append(" ").append(std::to_string(c.region)).append(" (");
                 result.rescaled.append(std::to_string(change)).append(" %)");

@@ -77,15 +77,18 @@ std::string point_text(const Eigen::Vector3d& p);
 class RetryPolicy {
 public:
     /// Rounds at most: the last one reports what still fails instead of retrying.
-    static constexpr int kRounds = 14;
+    static constexpr int kRounds = 20;
     /// The rounds before the last in which a stall or crossing keeps the patch's background
     /// triangles at once (late()). A patch copied so changes the curves it shares (they take
     /// the background's points) and so its neighbours' loops: they are meshed again in the
     /// next round and may stall there in turn (natbrainlab: a neighbour stalled in the last
-    /// round and the whole background was used). Each late round copies what stalls in it,
-    /// so the copied set grows until a round stands; five such rounds settle every atlas
-    /// and torture case seen. The first kRounds - kLateRounds - 1 = 8 rounds refine.
-    static constexpr int kLateRounds = 5;
+    /// round and the whole background was used). Each late round copies what stalls, crosses,
+    /// turns inside out or opens in it and changes no size (a region's volume change is
+    /// left to preserve_volumes: a late rescale of many patches started the stalls again,
+    /// inia19 and jhu189), so the copied set grows until a round stands. AICHA, inia19 and
+    /// jhu189 stood in rounds 16-17 (with five late rounds, each of them and JHU-2mm fell
+    /// back to the whole background). The first kRounds - kLateRounds - 1 = 8 rounds refine.
+    static constexpr int kLateRounds = 11;
     static constexpr bool late(int round) { return round + 1 + kLateRounds >= kRounds; }
 
     RetryPolicy(const core::SurfaceNetwork& background, const SizeField& field,

@@ -294,6 +294,71 @@ TEST_CASE("the retry policy owns every size multiplier of the rounds", "[remesh]
     CHECK(retry.round_summary(1).find("round 2") != std::string::npos);
 }
 
+TEST_CASE("late rounds change no size: volume changes are left, bad patches copied", "[remesh]") {
+    using surface::remesh_detail::RetryPolicy;
+    const core::SurfaceNetwork bg = fixtures::octahedron(10.0);
+    core::SurfaceNetwork shrunk = bg;  // every vertex at 0.8: the volume -48.8%
+    for (double& c : shrunk.xyz) c *= 0.8;
+    const surface::SizeField field(bg, std::vector<double>(bg.vertex_count(), 2.0));
+    surface::Features features;
+    surface::Patch patch;
+    patch.region_in = 1;
+    for (std::int32_t f = 0; f < std::int32_t(bg.face_count()); ++f) patch.faces.push_back(f);
+    features.patches.push_back(patch);
+    const std::vector<std::int32_t> face_patch(bg.face_count(), 0);
+    surface::RemeshParams params;
+    params.max_volume_change_percent = 1.0;
+    core::AdtBox whole = core::AdtBox::of_point(Eigen::Vector3d(-10, -10, -10));
+    whole.extend(Eigen::Vector3d(10, 10, 10));
+    const int first_late = RetryPolicy::kRounds - RetryPolicy::kLateRounds - 1;
+
+    // Before the late rounds the region's patches get finer sizes.
+    RetryPolicy early(bg, field, 1);
+    core::StageContext c0;
+    const auto r0 = surface::remesh_detail::check_regions(bg, shrunk, face_patch, features, params,
+                                                          first_late - 1, early, c0);
+    CHECK(!r0.again);
+    CHECK(r0.rescaled.find(" 1 (") != std::string::npos);
+    CHECK(early.has_new_sizes(0, whole));
+
+    // In a late round the change is only a warning: no new size could start a new stall.
+    RetryPolicy late(bg, field, 1);
+    core::StageContext c1;
+    const auto r1 = surface::remesh_detail::check_regions(bg, shrunk, face_patch, features, params,
+                                                          first_late, late, c1);
+    CHECK(!r1.again);
+    CHECK(r1.rescaled.empty());
+    CHECK(!late.has_new_sizes(0, whole));
+    CHECK(!late.copy(0));
+    REQUIRE(!c1.warnings().empty());
+    CHECK_THAT(c1.warnings().front(), Catch::Contains("changed its volume"));
+
+    // An open region in a late round: the patch at its open edges keeps its background
+    // triangles (no shrink site), and the round is meshed again.
+    core::SurfaceNetwork open = bg;
+    open.faces.pop_back();
+    open.region_in.pop_back();
+    open.region_out.pop_back();
+    const std::vector<std::int32_t> open_patch(open.face_count(), 0);
+    RetryPolicy opened(bg, field, 1);
+    core::StageContext c2;
+    const auto r2 = surface::remesh_detail::check_regions(bg, open, open_patch, features, params,
+                                                          first_late, opened, c2);
+    CHECK(r2.again);
+    CHECK(opened.copy(0));
+    CHECK(opened.shrink(Eigen::Vector3d(0, 0, 10)) == 1.0);
+    REQUIRE(!c2.warnings().empty());
+    CHECK_THAT(c2.warnings().front(), Catch::Contains("keep their background triangles"));
+    // The same before the late rounds: finer there, not copied.
+    RetryPolicy early_open(bg, field, 1);
+    core::StageContext c3;
+    CHECK(surface::remesh_detail::check_regions(bg, open, open_patch, features, params,
+                                                first_late - 1, early_open, c3)
+              .again);
+    CHECK(!early_open.copy(0));
+    CHECK(early_open.has_new_sizes(0, whole));
+}
+
 TEST_CASE("a patch is cut around the places where its front stalled", "[remesh]") {
     // A flat 30 x 30 mm sheet of 1 mm squares, one patch of one region.
     core::SurfaceNetwork bg;
