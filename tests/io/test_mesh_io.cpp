@@ -960,6 +960,17 @@ TEST_CASE("read_surface refuses compressed VTK XML blocks of impossible sizes", 
         CHECK_THAT(input_error_message([&] { io::read_surface(dir + "/appended.vtp"); }),
                    Catch::Contains("appended.vtp") && Catch::Contains("compressed bytes"));
     }
+    // VTK reads the leading number of an offset: "20=" pointed into another array's data,
+    // whose bytes announced 77e12 blocks (found by fuzz_mesh).
+    SECTION("raw appended: an offset that is not a plain number") {
+        std::string text = write(dir + "/offset.vtp", true);
+        const std::size_t at = text.find("offset=\"", text.find("<DataArray")) + 8;
+        const std::size_t end = text.find('"', at);
+        text.replace(end, 0, "=");
+        write_text(dir + "/offset.vtp", text);
+        CHECK_THAT(input_error_message([&] { io::read_surface(dir + "/offset.vtp"); }),
+                   Catch::Contains("offset.vtp") && Catch::Contains("expected a whole number"));
+    }
 }
 
 // Found by fuzz_surface and fuzz_mesh (issue 21): VTK's XML reader dereferences null when an
