@@ -1116,9 +1116,16 @@ void check_vtk_xml(const std::string& path) {
             if (name != "FieldData") continue;
             for (int k = 0; k < e->GetNumberOfNestedElements(); ++k) {
                 vtkXMLDataElement* array = e->GetNestedElement(k);
+                // VTK reads the leading number of NumberOfTuples ("16=" as 16): only a
+                // plain count is taken, so that the array is checked against what VTK reads.
                 std::uint64_t tuples = 0;
-                if (array->GetAttribute("NumberOfTuples") != nullptr &&
-                    parse_number(attribute(array, "NumberOfTuples"), tuples))
+                const char* text = array->GetAttribute("NumberOfTuples");
+                if (text != nullptr && !parse_number(std::string_view(text), tuples))
+                    FM_THROW(InputError, in_quotes(path) + ": field array '" +
+                                             std::string(attribute(array, "Name")) +
+                                             "' has NumberOfTuples \"" + text +
+                                             "\" (expected a count)");
+                if (text != nullptr)
                     data.check_array(array, saturated_product(tuples, components(path, array)));
                 else
                     data.check_headers(array);

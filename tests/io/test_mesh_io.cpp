@@ -890,6 +890,27 @@ TEST_CASE("read_tet_mesh and read_surface refuse a damaged compressed VTU", "[io
     CHECK_THROWS_AS(frontmesh::io::read_surface(path), InputError);
 }
 
+// VTK reads the leading number of a field array's NumberOfTuples ("16=" as 16): the check
+// takes only a plain count, so that it checks the array against what VTK reads.
+TEST_CASE("read_tet_mesh refuses a field array count that is not a plain number", "[io]") {
+    const std::string dir = frontmesh::fixtures::temp_dir("tet_vtu_tuples");
+    const std::string path = dir + "/mesh.vtu";
+    frontmesh::io::write_tet_mesh_vtu(frontmesh::fixtures::cube_tet_mesh(2, 1.0, false), path, {});
+    CHECK(frontmesh::io::read_tet_mesh(path).tet_count() > 0);
+    std::string text;
+    {
+        std::ifstream in(path, std::ios::binary);
+        text.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+    }
+    const std::size_t at = text.find("NumberOfTuples=\"", text.find("<FieldData>"));
+    REQUIRE(at != std::string::npos);
+    text.replace(text.find('"', at + 16), 0, "=");
+    write_text(path, text);
+    CHECK_THAT(input_error_message([&] { frontmesh::io::read_tet_mesh(path); }),
+               Catch::Contains("mesh.vtu") && Catch::Contains("NumberOfTuples") &&
+                   Catch::Contains("expected a count"));
+}
+
 // Found by fuzz_mesh (issue 21): an array type VTK does not know made its XML reader
 // dereference a null array (SEGV in vtkXMLReader::ReadXMLInformation).
 TEST_CASE("read_tet_mesh and read_surface refuse a VTK XML array of unknown type", "[io]") {
