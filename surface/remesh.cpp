@@ -540,6 +540,7 @@ bool mesh_round(int round, Rounds& r, RoundResult& result) {
                  "again finer");
         return false;
     }
+    for (const std::string& w : regions.volume_warnings) ctx.warn(w);
     return true;
 }
 

@@ -164,8 +164,9 @@ RegionChecks check_regions(const core::SurfaceNetwork& bg, const core::SurfaceNe
                 result.rescaled.append(" ").append(std::to_string(c.region)).append(" (");
                 result.rescaled.append(std::to_string(change)).append(" %)");
             } else {
-                ctx.warn("remesh: region " + std::to_string(c.region) + " changed its volume by " +
-                         std::to_string(change) + " %, more than remesh.max_volume_change_percent");
+                result.volume_warnings.push_back(
+                    "remesh: region " + std::to_string(c.region) + " changed its volume by " +
+                    std::to_string(change) + " %, more than remesh.max_volume_change_percent");
             }
         }
     }

@@ -316,6 +316,9 @@ struct RegionChecks {
     bool again = false;    ///< a region is not a closed 2-manifold, or a part of it turned
                            ///< inside out: mesh again finer there
     std::string rescaled;  ///< regions refined for their volume change: " R (x %)" each
+    /// Volume changes beyond the limit left as they are (late rounds, frugal work): warnings
+    /// for the round that stands, not for every late round that checks them.
+    std::vector<std::string> volume_warnings;
 };
 
 /// Every region of `out` must be a closed, oriented 2-manifold with no part turned inside out
