@@ -1,6 +1,7 @@
 // MEDIT .mesh (ASCII, MeshVersionFormatted 2): writer and reader.
 // Layout: keyword, count on the next line, then one entity per line ending with its reference.
 
+#include <algorithm>
 #include <map>
 #include <set>
 
@@ -78,6 +79,18 @@ RawMesh read_medit(const std::string& path) {
     bool seen_version = false;
     std::map<long long, std::string> region_names;
     std::set<long long> labels;
+    // A section's count: each entity holds `tokens` tokens of at least one byte each, so no
+    // more entities than the rest of the file has room for (a count of 8.8e18 made
+    // reserve() throw length_error, found by fuzz_mesh; the product for a skipped section
+    // overflowed).
+    const auto count = [&in](const char* what, int tokens) {
+        const long long n = in.integer(what);
+        const std::size_t room = in.text().size() - std::min(in.text().size(), in.position());
+        if (n < 0 || static_cast<unsigned long long>(n) > room / std::size_t(std::max(tokens, 1)))
+            in.fail(std::string(what) + " " + std::to_string(n) +
+                    " is more than the rest of the file holds");
+        return n;
+    };
     while (!in.at_end()) {
         const std::string key(in.word("a keyword"));
         if (key[0] == '#') {
@@ -108,8 +121,8 @@ RawMesh read_medit(const std::string& path) {
         } else if (key == "Vertices") {
             if (!seen_version || dimension != 3)
                 in.fail("Vertices before MeshVersionFormatted / Dimension 3");
-            const long long n = in.integer("the number of vertices");
-            raw.mesh.xyz.reserve(3 * static_cast<std::size_t>(std::max(0LL, n)));
+            const long long n = count("the number of vertices", 4);
+            raw.mesh.xyz.reserve(3 * static_cast<std::size_t>(n));
             for (long long i = 0; i < n; ++i) {
                 const double x = in.real("a coordinate"), y = in.real("a coordinate"),
                              z = in.real("a coordinate");
@@ -117,7 +130,7 @@ RawMesh read_medit(const std::string& path) {
                 raw.mesh.add_node({x, y, z});
             }
         } else if (key == "Triangles") {
-            const long long n = in.integer("the number of triangles");
+            const long long n = count("the number of triangles", 4);
             for (long long i = 0; i < n; ++i) {
                 std::array<std::int32_t, 3> t{};
                 for (auto& v : t) v = static_cast<std::int32_t>(in.integer("a vertex number") - 1);
@@ -125,7 +138,7 @@ RawMesh read_medit(const std::string& path) {
                 raw.triangles.push_back(t);
             }
         } else if (key == "Tetrahedra") {
-            const long long n = in.integer("the number of tetrahedra");
+            const long long n = count("the number of tetrahedra", 5);
             for (long long i = 0; i < n; ++i) {
                 std::int32_t t[4];
                 for (auto& v : t) v = static_cast<std::int32_t>(in.integer("a vertex number") - 1);
@@ -143,7 +156,7 @@ RawMesh read_medit(const std::string& path) {
                 in.skip_line();
                 continue;
             }
-            const long long n = in.integer("a count");
+            const long long n = count("a count", it->second);
             for (long long i = 0; i < n * it->second; ++i) in.word("a number");
         } else {
             in.fail("unknown MEDIT keyword \"" + key.substr(0, 40) +

@@ -295,6 +295,15 @@ TEST_CASE("readers reject bad files naming file and line", "[io][export]") {
     std::ofstream(dir + "/c.mesh")
         << "MeshVersionFormatted 2\nDimension 3\nVertices\n1\n0 0 0 0\nEnd\n";
     CHECK_THROWS_WITH(io::read_mesh(dir + "/c.mesh"), Catch::Contains("no tetrahedra"));
+    // Counts beyond what the file holds (fuzz_mesh: 8.8e18 vertices made reserve() throw
+    // length_error; a skipped section's count times its numbers overflowed).
+    std::ofstream(dir + "/e.mesh")
+        << "MeshVersionFormatted 2\nDimension 3\nVertices\n8777777777777777770\n0 0 0 0\n";
+    CHECK_THROWS_WITH(io::read_mesh(dir + "/e.mesh"),
+                      Catch::Contains("e.mesh") && Catch::Contains("more than the rest"));
+    std::ofstream(dir + "/f.mesh")
+        << "MeshVersionFormatted 2\nDimension 3\nEdges\n4000000000000000000\n1 2 0\n";
+    CHECK_THROWS_WITH(io::read_mesh(dir + "/f.mesh"), Catch::Contains("more than the rest"));
     std::ofstream(dir + "/d.inp")
         << "*NODE\n1, 0, 0, 0\n*ELEMENT, TYPE=C3D4, ELSET=A\n1, 1, 2, 3, 9\n";
     CHECK_THROWS_AS(io::read_mesh(dir + "/d.inp"), core::InputError);
