@@ -796,6 +796,12 @@ void check_metaimage(const std::string& path, const std::string& file, const Hea
             header.fail(key + " is given twice (lines " + std::to_string(it->second) + " and " +
                         std::to_string(i + 1) + ")");
         keys[key] = trimmed(line.substr(separator + 1));
+        // MET_SkipToVal skips white space after the separator, line ends included: an empty
+        // value makes MetaIO take the next line as the value (an empty ElementDataFile
+        // followed by compressed bytes made it allocate 2^64 - 1 bytes).
+        if (keys[key].empty())
+            header.fail(line_name + ": " + key + " has no value (MetaIO would read line " +
+                        std::to_string(i + 2) + " as its value)");
     }
     auto value_of = [&](std::initializer_list<const char*> names)
         -> std::optional<std::pair<std::string, std::string>> {

@@ -1003,6 +1003,13 @@ TEST_CASE("compressed and text data are counted against the header before alloca
         REQUIRE(size_at != std::string::npos);
         write_bytes(path, bytes.substr(0, size_at) + bytes.substr(bytes.find('\n', size_at + 1)));
         check_refused(path, ImageReadOptions{}, path, {"CompressedDataSize is missing"});
+        // An empty value: MetaIO reads the next line as the value (fuzz_image: an empty
+        // ElementDataFile before the compressed bytes made it allocate 2^64 - 1 bytes).
+        write_bytes(path, with_line(bytes, "ElementDataFile", "ElementDataFile =\nLOCAL"));
+        check_refused(path, ImageReadOptions{}, path,
+                      {"ElementDataFile has no value", "would read line"});
+        write_bytes(path, with_line(bytes, "ElementSpacing", "ElementSpacing = "));
+        check_refused(path, ImageReadOptions{}, path, {"ElementSpacing has no value"});
     }
     SECTION("NRRD gzip, and ascii text") {
         const std::string path = dir + "/labels.nrrd";
