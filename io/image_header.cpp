@@ -795,13 +795,14 @@ void check_metaimage(const std::string& path, const std::string& file, const Hea
         if (const auto [it, added] = key_line.emplace(key, i + 1); !added)
             header.fail(key + " is given twice (lines " + std::to_string(it->second) + " and " +
                         std::to_string(i + 1) + ")");
-        keys[key] = trimmed(line.substr(separator + 1));
         // MET_SkipToVal skips white space after the separator, line ends included: an empty
         // value makes MetaIO take the next line as the value (an empty ElementDataFile
         // followed by compressed bytes made it allocate 2^64 - 1 bytes).
-        if (keys[key].empty())
+        std::string value = trimmed(line.substr(separator + 1));
+        if (value.empty())
             header.fail(line_name + ": " + key + " has no value (MetaIO would read line " +
                         std::to_string(i + 2) + " as its value)");
+        keys[key] = std::move(value);
     }
     auto value_of = [&](std::initializer_list<const char*> names)
         -> std::optional<std::pair<std::string, std::string>> {
@@ -861,7 +862,7 @@ void check_metaimage(const std::string& path, const std::string& file, const Hea
         header_size = header.integer(skip->first, skip->second, -1, std::int64_t{1} << 50);
     auto is_true = [&](const char* name, bool fallback) {
         const auto v = value_of({name});
-        if (!v || v->second.empty()) return fallback;
+        if (!v) return fallback;
         const char c = v->second.front();
         return c == 'T' || c == 't' || c == '1';
     };
@@ -873,7 +874,7 @@ void check_metaimage(const std::string& path, const std::string& file, const Hea
     std::vector<std::string> tokens;
     for (std::string token; data_tokens >> token;) tokens.push_back(token);
     // LIST and printf patterns ("slice%03d.raw 1 40 1") name one file per slice.
-    if (tokens.empty() || tokens.front() == "LIST") return;
+    if (tokens.front() == "LIST") return;  // values are never empty (checked above)
     if (data_name.find('%') != std::string::npos) {
         check_meta_pattern(header, tokens, extents);
         return;
