@@ -455,6 +455,12 @@ void smooth(core::SurfaceNetwork& out, const PatchCache& cache, SurfaceConstrain
 
 // --- one round ----------------------------------------------------------------------------
 
+// Faces with an angle over this have their longest edge split before the smoothing (a
+// surface triangle over about 130 degrees forces a tet skewness over 0.8), unless a new face
+// would get an angle under min(its old smallest, kSplitGuardDeg).
+constexpr double kSplitAboveDeg = 120.0;
+constexpr double kSplitGuardDeg = 20.0;
+
 // What a round makes; the last round's is the result.
 struct RoundResult {
     core::SurfaceNetwork out;
@@ -521,6 +527,12 @@ bool mesh_round(int round, Rounds& r, RoundResult& result) {
     ctx.progress(0.7, "smoothing");
     result.constraints =
         surface_constraints(r.bg, r.features, curves, std::move(face_patch), vertex_face);
+    {
+        std::vector<const BackgroundPatch*> pointers;
+        for (const auto& p : r.cache.patches) pointers.push_back(&p);
+        result.sums["remesh.obtuse_splits"] += double(
+            split_obtuse_faces(out, pointers, result.constraints, kSplitAboveDeg, kSplitGuardDeg));
+    }
     const std::vector<double> front_xyz = out.xyz;  // positions before smoothing
     smooth(out, r.cache, result.constraints, r.params, result.sums);
     r.clock.lap("smoothing");

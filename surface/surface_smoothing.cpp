@@ -12,6 +12,7 @@
 #include "pipeline/core/error.h"
 #include "pipeline/core/quality.h"
 #include "surface/features.h"
+#include "surface/polyline.h"
 
 namespace frontmesh::surface {
 
@@ -22,22 +23,6 @@ enum class Kind : std::uint8_t { Free, Curve, Fixed };
 struct CurveSlot {
     std::int32_t curve = -1;
     std::int32_t index = -1;  // position in SurfaceCurve::vertices
-};
-
-// Arc-length evaluation of one background polyline.
-struct Polyline {
-    std::vector<Eigen::Vector3d> points;
-    std::vector<double> cumulative;  // arc length at each point
-    double length() const { return cumulative.empty() ? 0.0 : cumulative.back(); }
-    Eigen::Vector3d at(double s) const {
-        if (points.size() < 2) return points.empty() ? Eigen::Vector3d::Zero() : points[0];
-        const auto it = std::upper_bound(cumulative.begin(), cumulative.end(), s);
-        std::size_t i = it == cumulative.begin() ? 0 : std::size_t(it - cumulative.begin()) - 1;
-        i = std::min(i, points.size() - 2);
-        const double len = cumulative[i + 1] - cumulative[i];
-        const double t = len > 0.0 ? std::clamp((s - cumulative[i]) / len, 0.0, 1.0) : 0.0;
-        return (1.0 - t) * points[i] + t * points[i + 1];
-    }
 };
 
 Eigen::Vector3d raw_normal(const core::SurfaceNetwork& s, const std::array<std::int32_t, 3>& t) {
@@ -213,11 +198,7 @@ public:
         for (std::size_t ci = 0; ci < c.curves.size(); ++ci) {
             const SurfaceCurve& curve = c.curves[ci];
             FM_CHECK(curve.vertices.size() == curve.s.size() && curve.vertices.size() >= 2);
-            Polyline& pl = polylines_[ci];
-            pl.points = curve.polyline;
-            pl.cumulative.assign(pl.points.size(), 0.0);
-            for (std::size_t i = 1; i < pl.points.size(); ++i)
-                pl.cumulative[i] = pl.cumulative[i - 1] + (pl.points[i] - pl.points[i - 1]).norm();
+            polylines_[ci] = Polyline::of(curve.polyline);
             const std::size_t last = curve.vertices.size() - 1;
             for (std::size_t k = 0; k <= last; ++k) {
                 const auto v = std::size_t(curve.vertices[k]);

@@ -90,6 +90,21 @@ struct ForcedTet {
 /// vertex order, then region). Cost O(m) for m faces.
 std::vector<ForcedTet> forced_tets(const core::SurfaceNetwork& surface, double fan_wedge_below_deg);
 
+/// Splits the longest edge of faces with an angle over `max_angle_deg` (most obtuse first, a
+/// face once per pass, three passes): a triangle with an angle over about 130 degrees leaves
+/// every tetrahedron built on it a skewness over 0.8, whatever its fourth point. The new
+/// vertex lies on the edge's curve (arc length, between the ends) or on the patch of its two
+/// faces (projected), at the foot of an opposite vertex or the middle, a quarter of the edge
+/// from its ends at least; every face at the edge is halved. A split is kept only when no new
+/// face turns by 30 degrees or more from the face it halves, the largest angle at the edge
+/// drops by 5 degrees or more and the smallest stays at least min(its old value,
+/// `guard_deg`). `constraints` grow with the surface (curves, face patches, vertex face
+/// hints). Returns the splits; cost O(faces) per pass.
+std::size_t split_obtuse_faces(core::SurfaceNetwork& surface,
+                               const std::vector<const BackgroundPatch*>& patches,
+                               SurfaceConstraints& constraints, double max_angle_deg,
+                               double guard_deg);
+
 /// Improves `surface` in place: per pass, each vertex in id order moves to the angle-based
 /// position (the mean of its ring neighbours' edges rotated onto the bisectors of their ring
 /// angles), projected back onto its patch (`patches[face_patch]`, local descent from its
