@@ -55,6 +55,16 @@ RegionResult RegionMesher::run(ClosingOrder order, bool last_attempt) {
     if (front_.size() > 0) {
         closing_rounds += close_cavities(1, params_.max_closing_rounds);
         const std::int64_t front_after_rounds = front_.size();
+        // Rounds that more than doubled the front have degenerated (a layer thinner than
+        // the elements): the completion path then fills their thousands of triangles with
+        // cones of poor tets that refine cannot mend (JHU-WhiteMatter-2mm region 4: 48
+        // triangles before the rounds, 1,500 after, 573 tets over skewness 0.8 after
+        // refine). Where the rings came first, the region goes to its next attempt, which
+        // tries the cones on the small front first.
+        if (order == ClosingOrder::rings_first && front_after_rounds > 2 * front_before_rounds &&
+            !last_attempt)
+            fail("the closing rounds grew the front from " + std::to_string(front_before_rounds) +
+                 " to " + std::to_string(front_after_rounds) + " triangles");
         if (front_.size() > 0) cones += complete_cavities(kCompletionRounds);
         const std::int64_t front_after_cones = front_.size();
         // Where the rounds and the completion path have more than doubled the front, the
@@ -951,7 +961,8 @@ core::TetMesh tetra(const core::SurfaceNetwork& surface, const TetraParams& para
         // give the better tets; where the region's front cannot be closed so, the cones
         // first. In a layer thinner than h the rings put new points into ever smaller gaps
         // (torture seed 8: 128 front triangles after the levels, 3,370 after eight rounds,
-        // which the cones could not fill; one round of cones alone closes the 128). Then the
+        // which the cones could not fill; one round of cones alone closes the 128; rings that
+        // more than doubled the front go there too, see run()). Then the
         // same with other choices of the front, where a cavity wrapped around an island is
         // left that no cone fills (torture seed 466 after the curve pass of remesh smoothing:
         // 450 front triangles, one cavity of Euler characteristic -2): the stretching alpha a
