@@ -6,11 +6,13 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <csignal>
 #include <cstdio>
 #include <ctime>
 #include <filesystem>
 #include <fstream>
+#include <iomanip>
 #include <iostream>
 #include <map>
 #include <mutex>
@@ -387,6 +389,7 @@ public:
 
 private:
     void info(const std::string& m) { log_.line(core::LogLevel::Info, m); }
+    void warn_obtuse_triangles(const core::SurfaceNetwork& surface);
     /// How messages name input.surface.
     std::string user_surface() const { return "input.surface '" + recipe_.input.surface + "'"; }
     int index_of(const std::string& name, const char* flag) const;
@@ -553,12 +556,44 @@ void Run::read_input() {
         core::require_valid_regions(surface, user_surface());
         // Straight into tetra, the surface is kept exactly as it is: it must be closed,
         // oriented and clean (repair does that otherwise). A defect is bad input, exit 2.
-        if (stages_[entry_].in == Kind::Surface && stages_[entry_].out == Kind::Tets)
+        if (stages_[entry_].in == Kind::Surface && stages_[entry_].out == Kind::Tets) {
             core::require_meshable_surface(surface, user_surface());
+            warn_obtuse_triangles(surface);
+        }
     } else {
         info("reading checkpoint " + out_.checkpoint(stages_[first_ - 1]).string());
         data_ = read_checkpoint(out_.checkpoint(stages_[first_ - 1]), stages_[first_ - 1].out);
     }
+}
+
+// A triangle with an angle over about 130 degrees gives every tet on it a skewness over 0.8,
+// whatever its fourth point; tetra keeps the given triangles, so the user hears it first.
+void Run::warn_obtuse_triangles(const core::SurfaceNetwork& surface) {
+    constexpr double kForcedDeg = 130.0;
+    std::size_t count = 0;
+    double worst = 0.0;
+    Eigen::Vector3d where = Eigen::Vector3d::Zero();
+    for (const auto& t : surface.faces) {
+        const Eigen::Vector3d a = surface.point(t[0]), b = surface.point(t[1]),
+                              c = surface.point(t[2]);
+        const auto angle = [](const Eigen::Vector3d& u, const Eigen::Vector3d& v) {
+            return std::atan2(u.cross(v).norm(), u.dot(v)) * 180.0 / 3.14159265358979323846;
+        };
+        const double x = angle(b - a, c - a), y = angle(c - b, a - b), z = angle(a - c, b - c);
+        const double largest = std::max({x, y, z});
+        if (!(largest > kForcedDeg)) continue;
+        ++count;
+        if (largest > worst) worst = largest, where = (a + b + c) / 3.0;
+    }
+    if (count == 0) return;
+    std::ostringstream m;
+    m << user_surface() << ": " << count << " of " << surface.face_count()
+      << " triangles have an angle over 130 degrees (the largest " << std::fixed
+      << std::setprecision(1) << worst << std::defaultfloat << std::setprecision(6) << " at ("
+      << where.x() << ", " << where.y() << ", " << where.z()
+      << ") mm); tetra keeps every given triangle, and each tet on such a triangle has skewness "
+         "over 0.8 whatever its fourth point (--from remesh remeshes the surface first)";
+    log_.line(core::LogLevel::Warning, m.str());
 }
 
 // checkpoints/input.json: what summary.json and report.html say about the image (the

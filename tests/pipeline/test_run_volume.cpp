@@ -1,6 +1,7 @@
 // The volume stages through the command line: tetra and refine after the surface stages,
 // a surface meshed as it is (--from tetra), every mesh refereed by meshcheck.py.
 
+#include <algorithm>
 #include <filesystem>
 
 #include <catch2/catch.hpp>
@@ -132,6 +133,7 @@ TEST_CASE("a surface is meshed as it is with --from tetra", "[pipeline][volume]"
     const auto r = run_frontmesh("run recipe.yaml --quiet --from tetra", dir);
     INFO(r.err);
     REQUIRE(r.exit_code == 0);
+    CHECK_THAT(r.err, !Catch::Contains("over 130 degrees"));  // none on this sphere
     const fs::path out = fs::path(dir) / "out";
     CHECK_FALSE(fs::exists(out / "checkpoints/02-repair.vtu"));
     const core::TetMesh mesh = io::read_tet_mesh((out / "mesh.vtu").string());
@@ -155,6 +157,41 @@ TEST_CASE("a surface is meshed as it is with --from tetra", "[pipeline][volume]"
     CHECK(bad.exit_code == 2);
     CHECK_THAT(bad.err, Catch::Contains("04-tetra.vtu") && Catch::Contains("does not exist"));
     CHECK(fs::last_write_time(out / "mesh.vtu") == before);
+}
+
+TEST_CASE("given triangles over 130 degrees are named before tetra keeps them",
+          "[pipeline][volume]") {
+    // A box whose top has one vertex moved in its plane most of the way to the middle of an
+    // opposite edge: a valid surface with obtuse triangles there.
+    core::SurfaceNetwork box = fixtures::grid_box(6.0, 6.0, 6.0, 1.0);
+    std::int32_t v = -1;
+    for (std::size_t i = 0; i < box.vertex_count(); ++i)
+        if ((box.point(std::int32_t(i)) - Eigen::Vector3d(3.0, 3.0, 6.0)).norm() < 1e-9)
+            v = std::int32_t(i);
+    REQUIRE(v >= 0);
+    for (const auto& t : box.faces) {
+        const auto at = std::find(t.begin(), t.end(), v);
+        if (at == t.end()) continue;
+        const auto k = std::size_t(at - t.begin());
+        const Eigen::Vector3d mid = 0.5 * (box.point(t[(k + 1) % 3]) + box.point(t[(k + 2) % 3]));
+        box.point(v) += 0.85 * (mid - box.point(v));
+        break;
+    }
+    const std::string dir = fixtures::temp_dir("run_volume_obtuse");
+    io::write_surface_vtu(box, dir + "/box.vtu", {});
+    write_file(dir + "/recipe.yaml", "input:\n  surface: box.vtu\noutput:\n  dir: out\n");
+    const auto r = run_frontmesh("run recipe.yaml --quiet --from tetra", dir);
+    INFO(r.err);
+    REQUIRE(r.exit_code == 0);
+    CHECK_THAT(r.err, Catch::Contains("warning: input.surface") && Catch::Contains("box.vtu") &&
+                          Catch::Contains("triangles have an angle over 130 degrees") &&
+                          Catch::Contains(" of 432 triangles") && Catch::Contains(", 6) mm"));
+    CHECK(volume::check_tet_mesh(io::read_tet_mesh(dir + "/out/mesh.vtu")).valid());
+    // Through remesh the surface is remeshed first: no such warning.
+    const auto again = run_frontmesh("run recipe.yaml --quiet --from remesh", dir);
+    INFO(again.err);
+    CHECK(again.exit_code == 0);
+    CHECK_THAT(again.err, !Catch::Contains("over 130 degrees"));
 }
 
 TEST_CASE("AAL left hippocampus: real image to refined tets, refereed, exported",
