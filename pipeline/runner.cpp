@@ -29,6 +29,7 @@
 #include "io/mesh_io.h"
 #include "io/split_interfaces.h"
 #include "pipeline/core/error.h"
+#include "pipeline/core/quality.h"
 #include "pipeline/core/surface_check.h"
 #include "pipeline/diagnostics.h"
 #include "pipeline/output_dir.h"
@@ -576,11 +577,8 @@ void Run::warn_obtuse_triangles(const core::SurfaceNetwork& surface) {
     for (const auto& t : surface.faces) {
         const Eigen::Vector3d a = surface.point(t[0]), b = surface.point(t[1]),
                               c = surface.point(t[2]);
-        const auto angle = [](const Eigen::Vector3d& u, const Eigen::Vector3d& v) {
-            return std::atan2(u.cross(v).norm(), u.dot(v)) * 180.0 / 3.14159265358979323846;
-        };
-        const double x = angle(b - a, c - a), y = angle(c - b, a - b), z = angle(a - c, b - c);
-        const double largest = std::max({x, y, z});
+        const auto angles = core::triangle_angles_deg(a, b, c);
+        const double largest = *std::max_element(angles.begin(), angles.end());
         if (!(largest > kForcedDeg)) continue;
         ++count;
         if (largest > worst) worst = largest, where = (a + b + c) / 3.0;

@@ -440,11 +440,10 @@ SurfaceConstraints surface_constraints(const core::SurfaceNetwork& bg, const Fea
 
 // §2: "an angle-based smoothing method is applied to the resulting mesh to ensure quality",
 // with projection onto the background, curve vertices on their curves, and edge flips.
-void smooth(core::SurfaceNetwork& out, const PatchCache& cache, SurfaceConstraints& constraints,
-            const RemeshParams& params, std::map<std::string, double>& round_sums) {
+void smooth(core::SurfaceNetwork& out, const std::vector<const BackgroundPatch*>& pointers,
+            SurfaceConstraints& constraints, const RemeshParams& params,
+            std::map<std::string, double>& round_sums) {
     if (params.smoothing_iterations <= 0) return;
-    std::vector<const BackgroundPatch*> pointers;
-    for (const auto& p : cache.patches) pointers.push_back(&p);
     SmoothingParams smp;
     smp.iterations = params.smoothing_iterations;
     smp.flip_max_dihedral_deg = params.flip_max_dihedral_deg;
@@ -527,14 +526,12 @@ bool mesh_round(int round, Rounds& r, RoundResult& result) {
     ctx.progress(0.7, "smoothing");
     result.constraints =
         surface_constraints(r.bg, r.features, curves, std::move(face_patch), vertex_face);
-    {
-        std::vector<const BackgroundPatch*> pointers;
-        for (const auto& p : r.cache.patches) pointers.push_back(&p);
-        result.sums["remesh.obtuse_splits"] += double(
-            split_obtuse_faces(out, pointers, result.constraints, kSplitAboveDeg, kSplitGuardDeg));
-    }
+    std::vector<const BackgroundPatch*> pointers;
+    for (const auto& p : r.cache.patches) pointers.push_back(&p);
+    result.sums["remesh.obtuse_splits"] += double(
+        split_obtuse_faces(out, pointers, result.constraints, kSplitAboveDeg, kSplitGuardDeg));
     const std::vector<double> front_xyz = out.xyz;  // positions before smoothing
-    smooth(out, r.cache, result.constraints, r.params, result.sums);
+    smooth(out, pointers, result.constraints, r.params, result.sums);
     r.clock.lap("smoothing");
 
     ctx.progress(0.9, "checks");

@@ -8,6 +8,7 @@
 #include <utility>
 
 #include "pipeline/core/error.h"
+#include "pipeline/core/quality.h"
 #include "surface/features.h"
 #include "surface/polyline.h"
 #include "surface/surface_smoothing.h"
@@ -15,15 +16,6 @@
 namespace frontmesh::surface {
 
 namespace {
-
-// The three angles of triangle (a, b, c), degrees, at a, b and c.
-std::array<double, 3> angles_deg(const Eigen::Vector3d& a, const Eigen::Vector3d& b,
-                                 const Eigen::Vector3d& c) {
-    const auto angle = [](const Eigen::Vector3d& u, const Eigen::Vector3d& v) {
-        return std::atan2(u.cross(v).norm(), u.dot(v)) * 180.0 / std::numbers::pi;
-    };
-    return {angle(b - a, c - a), angle(c - b, a - b), angle(a - c, b - c)};
-}
 
 std::uint64_t edge_key(std::int32_t x, std::int32_t y) {
     if (x > y) std::swap(x, y);
@@ -66,7 +58,8 @@ public:
         std::vector<std::pair<double, std::int32_t>> candidates;  // (max angle, edge)
         for (std::size_t f = 0; f < s_.face_count(); ++f) {
             const auto& t = s_.faces[f];
-            const auto a = angles_deg(s_.point(t[0]), s_.point(t[1]), s_.point(t[2]));
+            const auto a =
+                core::triangle_angles_deg(s_.point(t[0]), s_.point(t[1]), s_.point(t[2]));
             const int i = int(std::max_element(a.begin(), a.end()) - a.begin());
             if (a[std::size_t(i)] > max_angle_)
                 candidates.emplace_back(a[std::size_t(i)],
@@ -123,7 +116,8 @@ private:
         double old_max = 0.0, old_min = 180.0;
         for (const auto f : faces_) {
             const auto& t = s_.faces[std::size_t(f)];
-            const auto a = angles_deg(s_.point(t[0]), s_.point(t[1]), s_.point(t[2]));
+            const auto a =
+                core::triangle_angles_deg(s_.point(t[0]), s_.point(t[1]), s_.point(t[2]));
             old_max = std::max(old_max, *std::max_element(a.begin(), a.end()));
             old_min = std::min(old_min, *std::min_element(a.begin(), a.end()));
         }
@@ -184,7 +178,7 @@ private:
                         ok = false;
                         break;
                     }
-                    const auto a = angles_deg(p0, p1, p2);
+                    const auto a = core::triangle_angles_deg(p0, p1, p2);
                     new_max = std::max(new_max, *std::max_element(a.begin(), a.end()));
                     new_min = std::min(new_min, *std::min_element(a.begin(), a.end()));
                 }

@@ -38,6 +38,14 @@ double triangle_min_angle_deg(const Eigen::Vector3d& a, const Eigen::Vector3d& b
     return std::atan2(u.cross(v).norm(), u.dot(v)) * 180.0 / std::numbers::pi;
 }
 
+std::array<double, 3> triangle_angles_deg(const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+                                          const Eigen::Vector3d& c) {
+    const auto angle = [](const Eigen::Vector3d& u, const Eigen::Vector3d& v) {
+        return std::atan2(u.cross(v).norm(), u.dot(v)) * 180.0 / std::numbers::pi;
+    };
+    return {angle(b - a, c - a), angle(c - b, a - b), angle(a - c, b - c)};
+}
+
 double tet_signed_volume(const Eigen::Vector3d& a, const Eigen::Vector3d& b,
                          const Eigen::Vector3d& c, const Eigen::Vector3d& d) {
     return (b - a).cross(c - a).dot(d - a) / 6.0;

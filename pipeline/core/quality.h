@@ -2,6 +2,8 @@
 // Element quality measures of the paper (Eqs. 1 and 2) and angles. Plain doubles: these
 // rank and report, they never decide topology.
 
+#include <array>
+
 #include <Eigen/Core>
 
 namespace frontmesh::core {
@@ -14,6 +16,10 @@ double triangle_skewness(const Eigen::Vector3d& a, const Eigen::Vector3d& b,
 /// Smallest interior angle of a triangle, degrees.
 double triangle_min_angle_deg(const Eigen::Vector3d& a, const Eigen::Vector3d& b,
                               const Eigen::Vector3d& c);
+
+/// The three interior angles of a triangle, degrees, at a, b and c.
+std::array<double, 3> triangle_angles_deg(const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+                                          const Eigen::Vector3d& c);
 
 /// Area of a triangle, mm^2.
 double triangle_area(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c);
