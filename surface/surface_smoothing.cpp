@@ -57,9 +57,11 @@ double region_wedge_deg(const core::SurfaceNetwork& s, core::Label region, std::
 
 // Smallest wedge of any region with exactly two of `faces` (the faces on edge (a, b)); with
 // `folds`, a wedge w counts as min(w, 360 - w) (thin_region_wedges: faces on each other).
+// With `deficit`, also adds up target - w over the wedges w under `target`.
 template <class Faces>
 double smallest_edge_wedge(const core::SurfaceNetwork& s, std::int32_t a, std::int32_t b,
-                           const Faces& faces, bool folds = false) {
+                           const Faces& faces, bool folds = false, double* deficit = nullptr,
+                           double target = 0.0) {
     double smallest = 360.0;
     const std::size_t n = faces.size();
     for (std::size_t i = 0; i < n; ++i)
@@ -83,6 +85,7 @@ double smallest_edge_wedge(const core::SurfaceNetwork& s, std::int32_t a, std::i
             // rounding, and this takes 0.
             const double w = region_wedge_deg(s, r, a, b, faces[i], other);
             smallest = std::min(smallest, folds ? std::min(w, 360.0 - w) : w);
+            if (deficit && w < target) *deficit += target - w;
         }
     return smallest;
 }
@@ -399,11 +402,7 @@ public:
         std::vector<std::int32_t> verts;
         for (const std::int64_t k : junction_keys_) {
             if (edge_wedge(k) >= target_deg) continue;
-            verts.clear();
-            for (const std::int32_t f : junction_.at(k))
-                for (const auto x : s_.faces[std::size_t(f)]) verts.push_back(x);
-            std::sort(verts.begin(), verts.end());
-            verts.erase(std::unique(verts.begin(), verts.end()), verts.end());
+            junction_vertices(k, verts);
             for (const std::int32_t v : verts) {
                 if (edge_wedge(k) >= target_deg) break;
                 if (kind_[std::size_t(v)] != Kind::Fixed) changes += raise_wedge(v, k, target_deg);
@@ -447,6 +446,83 @@ public:
             for (const std::int32_t v : verts) {
                 if (fan_tet_angle(s_, fans_[i]) >= target_deg) break;
                 if (kind_[std::size_t(v)] != Kind::Fixed) changes += raise_tip(v, i, target_deg);
+            }
+        }
+        return changes;
+    }
+
+    // The last resort for region wedges still under `target_deg` after the wedge pass (and
+    // the curve pass): there the background itself is that thin (a region tapering to a
+    // knife edge between two others, AICHA's 1.6 degrees), and no position on it opens the
+    // wedge. Each vertex of the edge's faces but corners tries offsets off the background
+    // (opening_search); a wedge w at an edge whose far vertex sits d from it
+    // opens by about offset / d radians per side, so offsets of at most kOpenStep of the
+    // local edge raise a 2 degree wedge past 10. Kept when no face folds or drops under
+    // min(its angle, kWedgeMinAngleDeg), no listed tip drops under min(its angle, the target),
+    // the smallest touched wedge (capped at the target) does not drop and it or the sum of
+    // the touched wedges' shortfalls under the target improves. Returns the moves.
+    std::size_t open_wedge_pass(double target_deg) {
+        std::size_t changes = 0;
+        std::vector<std::int32_t> verts;
+        for (const std::int64_t k : junction_keys_) {
+            if (edge_wedge(k) >= target_deg) continue;
+            junction_vertices(k, verts);
+            for (const std::int32_t v : verts) {
+                if (edge_wedge(k) >= target_deg) break;
+                if (kind_[std::size_t(v)] == Kind::Fixed) continue;
+                star_normals(v, normals_);
+                const double floor = std::min(star_quality(v, nullptr), kWedgeMinAngleDeg);
+                // Better: the smallest touched wedge (capped at the target) not lower, and
+                // it or the deficit under the target smaller.
+                double best_touched = std::min(star_wedge(v), target_deg);
+                double best_deficit = star_wedge_deficit(v, target_deg);
+                const double tip_before = tip_angle(v);
+                const auto better = [&] {
+                    const double q = star_quality(v, &normals_);
+                    if (q <= 0.0 || q < floor) return false;
+                    if (tip_angle(v) < std::min(tip_before, target_deg) - 1e-9) return false;
+                    const double touched = std::min(star_wedge(v), target_deg);
+                    if (touched < best_touched - 1e-9) return false;
+                    const double deficit = star_wedge_deficit(v, target_deg);
+                    if (!(touched > best_touched + 1e-6 || deficit < best_deficit - 1e-6))
+                        return false;
+                    best_touched = touched, best_deficit = deficit;
+                    return true;
+                };
+                changes += opening_search(v, better) ? 1 : 0;
+            }
+        }
+        return changes;
+    }
+
+    // As open_wedge_pass for the listed fans (spike tips) whose tet stays under `target_deg`
+    // after the tip pass: their vertices but corners try offsets off the background, under the tip
+    // pass's rules. Returns the moves.
+    std::size_t open_tip_pass(double target_deg) {
+        std::size_t changes = 0;
+        for (std::size_t i = 0; i < fans_.size(); ++i) {
+            if (fan_tet_angle(s_, fans_[i]) >= target_deg) continue;
+            std::array<std::int32_t, 4> verts = fans_[i].v;
+            std::sort(verts.begin(), verts.end());
+            for (const std::int32_t v : verts) {
+                if (fan_tet_angle(s_, fans_[i]) >= target_deg) break;
+                if (kind_[std::size_t(v)] == Kind::Fixed) continue;
+                star_normals(v, normals_);
+                const double floor = std::min(star_quality(v, nullptr), kWedgeMinAngleDeg);
+                const double wedge_before = star_wedge(v);
+                double best_touched = vertex_fan_angle(v), best_own = fan_tet_angle(s_, fans_[i]);
+                const auto better = [&] {
+                    const double q = star_quality(v, &normals_);
+                    if (q <= 0.0 || q < floor) return false;
+                    const double touched = vertex_fan_angle(v), own = fan_tet_angle(s_, fans_[i]);
+                    if (!wedge_better(touched, own, best_touched, best_own, target_deg))
+                        return false;
+                    if (star_wedge(v) < std::min({wedge_before, guard_deg_, touched}) - 1e-9)
+                        return false;
+                    best_touched = touched, best_own = own;
+                    return true;
+                };
+                changes += opening_search(v, better) ? 1 : 0;
             }
         }
         return changes;
@@ -509,6 +585,15 @@ private:
         jmask_[std::size_t(f)] = 0;
     }
 
+    // The vertices of the faces at junction edge k, increasing.
+    void junction_vertices(std::int64_t k, std::vector<std::int32_t>& verts) const {
+        verts.clear();
+        for (const std::int32_t f : junction_.at(k))
+            for (const auto x : s_.faces[std::size_t(f)]) verts.push_back(x);
+        std::sort(verts.begin(), verts.end());
+        verts.erase(std::unique(verts.begin(), verts.end()), verts.end());
+    }
+
     // Smallest region wedge at junction edge k: every region with exactly two faces there.
     double edge_wedge(std::int64_t k) const {
         const std::int64_t n = std::int64_t(s_.vertex_count());
@@ -533,6 +618,30 @@ private:
         for (auto k = offsets_[std::size_t(v)]; k < offsets_[std::size_t(v) + 1]; ++k)
             smallest = face_wedge(incident_[std::size_t(k)], smallest);
         return smallest;
+    }
+
+    // The wedges under `target` at the junction edges of the faces around v, summed as
+    // target - w: the opening passes' second measure, which sees a rise of one of two equal
+    // smallest wedges (the two regions of a symmetric knife edge) that their minimum hides.
+    double star_wedge_deficit(std::int32_t v, double target) {
+        keys_.clear();
+        for (auto k = offsets_[std::size_t(v)]; k < offsets_[std::size_t(v) + 1]; ++k) {
+            const std::int32_t f = incident_[std::size_t(k)];
+            const auto m = jmask_[std::size_t(f)];
+            const auto& t = s_.faces[std::size_t(f)];
+            for (int i = 0; i < 3; ++i)
+                if (m & (1u << i))
+                    keys_.push_back(edge_key(t[std::size_t(i)], t[std::size_t((i + 1) % 3)]));
+        }
+        std::sort(keys_.begin(), keys_.end());
+        keys_.erase(std::unique(keys_.begin(), keys_.end()), keys_.end());
+        const std::int64_t n = std::int64_t(s_.vertex_count());
+        double deficit = 0.0;
+        for (const std::int64_t key : keys_)
+            smallest_edge_wedge(s_, static_cast<std::int32_t>(key / n),
+                                static_cast<std::int32_t>(key % n), junction_.at(key), false,
+                                &deficit, target);
+        return deficit;
     }
 
     // A change may lower the smallest wedge it touches only while that stays >= the guard.
@@ -646,6 +755,44 @@ private:
         if (best_face < 0) return false;
         c_.vertex_face[std::size_t(v)] = best_face;
         return true;
+    }
+
+    // Direct search off the background for vertex v (the opening passes; curve vertices too,
+    // off their curves: a region one triangle wide between two curves has only curve vertices
+    // on its faces at the thin edge): offsets of kOpenSteps times the mean ring edge along the
+    // star's summed normal and towards and away from each ring vertex. v ends at the best
+    // point or stays (false); its face hint and arc length stay (nothing projects it after).
+    template <class Better>
+    bool opening_search(std::int32_t v, Better&& better) {
+        const auto b = offsets_[std::size_t(v)], e = offsets_[std::size_t(v) + 1];
+        if (b == e) return false;
+        Eigen::Vector3d normal = Eigen::Vector3d::Zero();
+        ring_.clear();
+        for (auto k = b; k < e; ++k) {
+            const auto& t = s_.faces[std::size_t(incident_[std::size_t(k)])];
+            normal += raw_normal(s_, t);
+            for (const auto x : t)
+                if (x != v) ring_.push_back(x);
+        }
+        std::sort(ring_.begin(), ring_.end());
+        ring_.erase(std::unique(ring_.begin(), ring_.end()), ring_.end());
+        const Eigen::Vector3d P = s_.point(v);
+        double mean_edge = 0.0;
+        for (const auto x : ring_) mean_edge += (s_.point(x) - P).norm();
+        mean_edge /= double(ring_.size());
+        directions_.clear();
+        if (normal.norm() > 0.0) directions_.push_back(normal.normalized());
+        for (const auto x : ring_) directions_.push_back((s_.point(x) - P).normalized());
+        Eigen::Vector3d best_point = P;
+        bool moved = false;
+        for (const Eigen::Vector3d& d : directions_)
+            for (const double sign : {1.0, -1.0})
+                for (const double step : kOpenSteps) {
+                    s_.point(v) = P + sign * step * mean_edge * d;
+                    if (better()) best_point = s_.point(v), moved = true;
+                }
+        s_.point(v) = best_point;
+        return moved;
     }
 
     // Direct search for curve vertex v: steps of `steps` times the gap between its curve
@@ -915,7 +1062,12 @@ private:
     static constexpr double kCosBadFlat = 0.8660254037844387;  // cos 30 degrees
     // Region wedges: no change may lower one under the guard (or lower one already under
     // it); wedge_pass keeps faces at >= min(their angle, kWedgeMinAngleDeg).
+    std::vector<std::int64_t> keys_;           // star_wedge_deficit's scratch
+    std::vector<Eigen::Vector3d> directions_;  // opening_search's scratch
     static constexpr double kWedgeMinAngleDeg = 22.0;
+    // The opening passes' offsets off the background, in mean ring edges (at most kOpenStep).
+    static constexpr double kOpenStep = 0.15;
+    static constexpr std::array<double, 5> kOpenSteps{0.02, 0.04, 0.07, 0.1, kOpenStep};
     double guard_deg_ = 0.0;  // min(wedge_target_deg, 20); 0 = no guard
 };
 
@@ -948,6 +1100,26 @@ std::vector<ForcedTet> forced_tets(const core::SurfaceNetwork& surface,
     for (const FanTet& fan : fan_tets(surface, offsets, incident, fan_wedge_below_deg))
         tips.push_back({surface.point(fan.v[0]), fan.region, fan_tet_angle(surface, fan)});
     return tips;
+}
+
+// The opening passes (open_thin_wedges) of a smoother whose tips are listed: moves off the
+// background for the wedges, then the tips, still under their targets. Two passes each.
+std::size_t open_passes(Smoother& smoother, const SmoothingParams& params) {
+    if (!params.open_thin_wedges) return 0;
+    std::size_t openings = 0;
+    if (params.wedge_target_deg > 0.0)
+        for (int pass = 0; pass < 2; ++pass) {
+            const std::size_t changes = smoother.open_wedge_pass(params.wedge_target_deg);
+            openings += changes;
+            if (changes == 0) break;
+        }
+    if (params.tip_target_deg > 0.0)
+        for (int pass = 0; pass < 2; ++pass) {
+            const std::size_t changes = smoother.open_tip_pass(params.tip_target_deg);
+            openings += changes;
+            if (changes == 0) break;
+        }
+    return openings;
 }
 
 // Faces with a smallest angle under this get the direct search of worst_pass.
@@ -1011,6 +1183,14 @@ SmoothingReport smooth_surface(core::SurfaceNetwork& surface,
             report.moves += moves;
             if (moves == 0) break;
         }
+    // Last, as nothing after them projects vertices back: the wedges and tips the background
+    // itself makes thin are opened off it.
+    if (params.iterations > 0) {
+        report.openings = open_passes(smoother, params);
+        ctx.add("remesh.wedge_openings", double(report.openings));
+        if (params.tip_target_deg > 0.0)
+            ctx.count("remesh.min_forced_tet_deg", smoother.min_forced_tet());
+    }
     // After the tip passes, which may lower a fan's wedge to its raised tet angle.
     if (params.iterations > 0 && params.wedge_target_deg > 0.0)
         ctx.count("remesh.min_region_wedge_deg", smoother.min_wedge());
@@ -1018,6 +1198,15 @@ SmoothingReport smooth_surface(core::SurfaceNetwork& surface,
     ctx.add("remesh.smoothing_moves", double(report.moves));
     ctx.add("remesh.edge_flips", double(report.flips));
     return report;
+}
+
+std::size_t open_thin_wedges(core::SurfaceNetwork& surface,
+                             const std::vector<const BackgroundPatch*>& patches,
+                             SurfaceConstraints& constraints, const SmoothingParams& params) {
+    if (params.iterations <= 0 || !params.open_thin_wedges) return 0;
+    Smoother smoother(surface, patches, constraints, params);
+    if (params.tip_target_deg > 0.0) smoother.build_tips(2.0 * params.tip_target_deg);
+    return open_passes(smoother, params);
 }
 
 }  // namespace frontmesh::surface

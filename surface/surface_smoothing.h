@@ -43,6 +43,10 @@ struct SmoothingParams {
     /// Forced tets (ForcedTet) whose smallest dihedral angle is under this are raised by a
     /// last pass of moves (fans with a wedge under twice this count); 0 = off.
     double tip_target_deg = 20.0;
+    /// Region wedges and forced tets still under their targets after those passes, where the
+    /// background itself is that thin, are raised by moves of vertices (not corners) off
+    /// the background (at most 0.15 of the local edge): the last pass.
+    bool open_thin_wedges = true;
 };
 
 struct SmoothingReport {
@@ -56,6 +60,7 @@ struct SmoothingReport {
     std::size_t tip_changes = 0;             ///< moves of the tip passes
     double min_forced_tet_before_deg = 0.0;  ///< smallest ForcedTet angle before the tip passes
     double min_forced_tet_after_deg = 0.0;   ///< and after (180 when there is none)
+    std::size_t openings = 0;                ///< moves off the background (open_thin_wedges)
 };
 
 /// A junction edge (three or more faces) where a region's wedge, the interior dihedral angle
@@ -125,5 +130,14 @@ SmoothingReport smooth_surface(core::SurfaceNetwork& surface,
                                const std::vector<const BackgroundPatch*>& patches,
                                SurfaceConstraints& constraints, const SmoothingParams& params,
                                core::StageContext& ctx);
+
+/// The last passes of smooth_surface alone (SmoothingParams::open_thin_wedges): region wedges
+/// and forced tets under their targets raised by moves off the background, for a surface
+/// changed after its smoothing (remesh.preserve_volume's offsets can close a wedge that the
+/// smoothing opened). Returns the moves; none when `params.iterations` is 0 or the passes are
+/// off.
+std::size_t open_thin_wedges(core::SurfaceNetwork& surface,
+                             const std::vector<const BackgroundPatch*>& patches,
+                             SurfaceConstraints& constraints, const SmoothingParams& params);
 
 }  // namespace frontmesh::surface

@@ -169,7 +169,7 @@ TEST_CASE("smoothing keeps a thin region wedge at a junction curve open, on the 
     const std::vector<const surface::BackgroundPatch*> pointers{&patches[0], &patches[1],
                                                                 &patches[2]};
 
-    auto run = [&](double target, surface::SmoothingReport& report) {
+    auto run = [&](double target, surface::SmoothingReport& report, bool open = false) {
         Lens coarse = make_lens(c, 12, {0.7 * rim_radius}, {6});
         // Coarse rim = every 8th background rim point (same positions, exactly).
         for (std::size_t i = 0; i < coarse.rim.size(); ++i)
@@ -208,14 +208,23 @@ TEST_CASE("smoothing keeps a thin region wedge at a junction curve open, on the 
         surface::SmoothingParams params;
         params.iterations = 5;
         params.wedge_target_deg = target;
+        params.open_thin_wedges = open;
         core::StageContext ctx;
         report = surface::smooth_surface(coarse.s, pointers, cons, params, ctx);
-        // Every vertex on its patch or on the rim; regions closed and oriented.
+        // Every vertex on its patch or on the rim (opened: within 0.15 of its longest edge);
+        // regions closed and oriented.
+        double longest = 0.0;
+        for (const auto& t : coarse.s.faces)
+            for (int i = 0; i < 3; ++i)
+                longest = std::max(longest, (coarse.s.point(t[std::size_t(i)]) -
+                                             coarse.s.point(t[std::size_t((i + 1) % 3)]))
+                                                .norm());
+        const double off_background = open ? 0.15 * longest : 1e-9;
         for (std::size_t f = 0; f < coarse.s.face_count(); ++f)
             for (const auto v : coarse.s.faces[f])
                 CHECK(
                     pointers[std::size_t(cons.face_patch[f])]->project(coarse.s.point(v)).distance <
-                    1e-9);
+                    off_background);
         for (const auto& check : core::check_region_boundaries(coarse.s)) {
             CHECK(check.is_closed());
             CHECK(check.is_oriented());
@@ -248,6 +257,14 @@ TEST_CASE("smoothing keeps a thin region wedge at a junction curve open, on the 
     for (const auto& w : thin_off) smallest = std::min(smallest, w.wedge_deg);
     CHECK(smallest == Approx(w_off));
     CHECK(surface::thin_region_wedges(with, w_on - 0.01).empty());
+    // The background's own wedge (18.2 degrees) is under the target: the opening pass moves
+    // free vertices off it, within 0.15 of an edge (checked in run), to the target.
+    surface::SmoothingReport opened;
+    const double w_open = min_region_wedge(run(20.0, opened, true));
+    INFO("opened " << w_open << " (" << opened.openings << " moves)");
+    CHECK(opened.openings > 0);
+    CHECK(w_open > true_wedge);
+    CHECK(w_open >= 19.0);
 }
 
 namespace {
@@ -333,7 +350,8 @@ TEST_CASE("the tip pass raises the forced tet of a thin three-face cone", "[reme
     // angle-based smoothing). Moving c towards the mirror image of T across a-b (or a and b
     // out) raises those towards the wedges.
     std::vector<double> min_angle(2, 180.0);
-    auto run = [&min_angle](double tip_target, surface::SmoothingReport& report) {
+    auto run = [&min_angle](double tip_target, surface::SmoothingReport& report,
+                            bool open = false) {
         Blade blade = make_blade(60.0, 0.85, 2.5);
         std::vector<std::vector<std::int32_t>> patch_faces(3);
         for (std::size_t f = 0; f < blade.bg.face_count(); ++f)
@@ -357,13 +375,15 @@ TEST_CASE("the tip pass raises the forced tet of a thin three-face cone", "[reme
         const double before = at_tip(surface::forced_tets(blade.s, 20.0));
         surface::SmoothingParams params;
         params.tip_target_deg = tip_target;
+        params.open_thin_wedges = open;  // off: every vertex stays on the background
         core::StageContext ctx;
         report = surface::smooth_surface(blade.s, pointers, cons, params, ctx);
+        // Opened: c may leave the top patch by 0.15 of its mean ring edge (under 0.5 here).
         for (std::size_t f = 0; f < blade.s.face_count(); ++f)
             for (const auto v : blade.s.faces[f])
                 CHECK(
                     pointers[std::size_t(cons.face_patch[f])]->project(blade.s.point(v)).distance <
-                    1e-9);
+                    (open ? 0.5 : 1e-9));
         for (const auto& check : core::check_region_boundaries(blade.s)) {
             CHECK(check.is_closed());
             CHECK(check.is_oriented());
@@ -377,7 +397,8 @@ TEST_CASE("the tip pass raises the forced tet of a thin three-face cone", "[reme
         CHECK(blade.s.point(blade.tip) == Eigen::Vector3d::Zero());
         INFO("before " << before);
         CHECK(before < 10.0);
-        return at_tip(surface::forced_tets(blade.s, 20.0));
+        // Listed whatever its wedges (opened ones may pass 20 degrees): the same tet.
+        return at_tip(surface::forced_tets(blade.s, 360.0));
     };
     surface::SmoothingReport off, on;
     const double angle_off = run(0.0, off),
@@ -393,4 +414,12 @@ TEST_CASE("the tip pass raises the forced tet of a thin three-face cone", "[reme
     CHECK(on.min_forced_tet_after_deg > on.min_forced_tet_before_deg);
     // No face drops under min(its angle, 22 degrees).
     CHECK(min_angle[1] >= std::min(min_angle[0], 22.0) - 1e-9);
+    // Off the background the free vertex c opens the tet further.
+    surface::SmoothingReport opened;
+    const double angle_open = run(surface::SmoothingParams().tip_target_deg, opened, true);
+    INFO("opened " << angle_open << " (" << opened.openings << " moves)");
+    if (angle_on < surface::SmoothingParams().tip_target_deg) {
+        CHECK(opened.openings > 0);
+        CHECK(angle_open > angle_on + 0.5);
+    }
 }
