@@ -1058,6 +1058,12 @@ ReportContext Run::report_context() const {
     context.title = recipe_.path;
     context.frame = frame_;
     context.region_names = names_.names();
+    // The table's colours as the VTU writes them (io::LabelTable::colour); other labels get
+    // io::default_colour in the report too.
+    for (const auto& [label, name] : names_.names()) {
+        (void)name;
+        context.region_colours[label] = names_.colour(label);
+    }
     const fs::path input_json = out_.dir / "checkpoints" / "input.json";
     if (!surface_input_ && fs::exists(input_json)) {
         const std::string text = read_text(input_json);
