@@ -549,14 +549,15 @@ std::vector<std::string> write_quality_report(const std::string& dir, const core
 
     if (!context.stages.empty()) {
         h << "<h2>Stages</h2>\n<table><tr><th>stage</th><th>status</th><th>wall time (s)</th>"
-             "<th>peak memory (MB)</th><th>parameters</th></tr>\n";
+             "<th>peak memory (MB; the stage's own, else marked: the process's so far)</th>"
+             "<th>parameters</th></tr>\n";
         double total = 0.0;
         for (const auto& stage : context.stages) {
             total += stage.wall_s;
             h << "<tr><td>" << escaped(stage.name) << "</td><td class=\"text\">"
               << (stage.reused ? "reused (timing of the run that made it)" : "ran") << "</td><td>"
               << fixed(stage.wall_s, 2) << "</td><td>" << fixed(stage.peak_rss_mb, 0)
-              << "</td><td class=\"params\">";
+              << (stage.peak_is_process ? " (process)" : "") << "</td><td class=\"params\">";
             for (std::size_t k = 0; k < stage.parameters.size(); ++k) {
                 const auto& [key, value] = stage.parameters[k];
                 h << (k ? ", " : "") << escaped(key.substr(key.find('.') + 1)) << "&nbsp;=&nbsp;"

@@ -58,6 +58,8 @@ struct ReportContext {
         bool reused = false;  ///< its checkpoint was reused: timings of the run that made it
         double wall_s = 0.0, peak_rss_mb = 0.0;
         std::vector<std::pair<std::string, std::string>> parameters;  ///< key, value (YAML)
+        /// peak_rss_mb is the process's peak so far, not the stage's (no VmHWM reset).
+        bool peak_is_process = false;
     };
     std::vector<Stage> stages;
 };

@@ -1,6 +1,5 @@
 #include "pipeline/runner.h"
 
-#include <sys/resource.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -33,6 +32,7 @@
 #include "pipeline/core/surface_check.h"
 #include "pipeline/diagnostics.h"
 #include "pipeline/output_dir.h"
+#include "pipeline/peak_memory.h"
 #include "pipeline/quality_report.h"
 #include "pipeline/report.h"
 #include "pipeline/resource_estimate.h"
@@ -159,12 +159,6 @@ std::string input_hash(const Recipe& recipe) {
         h.add_file(f);
     }
     return h.hex();
-}
-
-double peak_rss_mb() {
-    rusage usage{};
-    getrusage(RUSAGE_SELF, &usage);
-    return static_cast<double>(usage.ru_maxrss) / 1024.0;  // ru_maxrss is in KiB on Linux
 }
 
 std::string now_text() {
@@ -428,6 +422,7 @@ private:
     const std::atomic<bool>* cancel_;
     const std::vector<StageDef>& stages_;
     const std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();
+    PeakMemory stage_memory_;  ///< reset at each stage's start (run_one)
     Log log_;
     const Outputs out_;
     const std::string frame_;
@@ -681,6 +676,7 @@ void Run::run_one(int i) {
     log_.begin_stage();
     diagnostics_.start(stage.name);
     std::vector<core::TetFigures>().swap(figures_);  // the last stage's: not held while this runs
+    stage_memory_.start();  // the stage's own peak from here to its summary (with its checkpoint)
     const auto t0 = std::chrono::steady_clock::now();
     const auto started = std::chrono::system_clock::now();
     // A surface stage that loses a whole region says so (issue 20: nothing disappears
@@ -846,13 +842,15 @@ void Run::write_stage_summary(int i, const core::StageContext& ctx, double wall,
     } else if (const auto* surface = std::get_if<core::SurfaceNetwork>(&data_)) {
         labels = core::region_labels(*surface);
     }
+    const double peak_mb = stage_memory_.peak_mb();
     std::ostringstream part;
     part << "{\"name\": " << json_quote(stage.name)
          << ", \"status\": \"ran\", \"reused\": false, \"started\": "
          << json_quote(iso_time(started))
          << ", \"finished\": " << json_quote(iso_time(std::chrono::system_clock::now()))
-         << ", \"wall_s\": " << json_number(wall)
-         << ", \"peak_rss_mb\": " << json_number(peak_rss_mb()) << ", \"checkpoint\": "
+         << ", \"wall_s\": " << json_number(wall) << ", \"peak_rss_mb\": " << json_number(peak_mb)
+         << ", \"peak_rss_scope\": " << json_quote(peak_scope_name(stage_memory_.scope()))
+         << ", \"checkpoint\": "
          << json_quote(fs::relative(out_.checkpoint(stage), out_.dir).string())
          << ", \"hash\": " << json_quote(hashes_[i]) << ",\n     \"counters\": {";
     bool any = false;
@@ -880,8 +878,8 @@ void Run::write_stage_summary(int i, const core::StageContext& ctx, double wall,
     io::write_text_atomically(out_.with_ext(stage, ".hash").string(), hashes_[i] + "\n");  // last
     committed(out_.with_ext(stage, ".hash"));
     char buf[120];
-    std::snprintf(buf, sizeof buf, "%s done in %.2f s, peak memory %.0f MB: ", stage.name.c_str(),
-                  wall, peak_rss_mb());
+    std::snprintf(buf, sizeof buf, "%s done in %.2f s, peak memory %.0f MB%s: ", stage.name.c_str(),
+                  wall, peak_mb, stage_memory_.scope() == PeakScope::Stage ? "" : " (process)");
     info(buf + quality.line);
 }
 
@@ -1092,6 +1090,7 @@ ReportContext Run::report_context() const {
             stage.wall_s = std::stod(m[1].str());
         if (std::regex_search(part, m, std::regex("\"peak_rss_mb\": ([0-9.eE+-]+)")))
             stage.peak_rss_mb = std::stod(m[1].str());
+        stage.peak_is_process = part.find("\"peak_rss_scope\": \"stage\"") == std::string::npos;
         for (const auto& [key, value] : recipe_.values)
             if (key.rfind(stage.name + ".", 0) == 0) stage.parameters.emplace_back(key, value);
         context.stages.push_back(std::move(stage));

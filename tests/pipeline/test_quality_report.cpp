@@ -165,8 +165,8 @@ TEST_CASE("report.html: names, per-region volumes and sizes, stages, a cross-sec
     context.region_names = {{1, "Left"}, {2, "Right"}};
     const auto h = pipeline::quality_histograms(mesh);
     context.voxel_volume_mm3 = {{1, h.regions.at(1).volume_mm3 * 1.1}, {2, 0.0}};
-    context.stages = {{"tetra", false, 1.5, 100.0, {{"tetra.stretching", "1.15"}}},
-                      {"refine", true, 2.5, 120.0, {{"refine.passes", "3"}}}};
+    context.stages = {{"tetra", false, 1.5, 100.0, {{"tetra.stretching", "1.15"}}, false},
+                      {"refine", true, 2.5, 120.0, {{"refine.passes", "3"}}, true}};
     const std::string dir = fixtures::temp_dir("quality_report_context");
     pipeline::write_quality_report(dir, mesh, nullptr, context, nullptr);
     const std::string html = frontmesh::testing::slurp(dir + "/report.html");
@@ -175,6 +175,7 @@ TEST_CASE("report.html: names, per-region volumes and sizes, stages, a cross-sec
                          Catch::Contains("-9.09%") &&  // 1 / 1.1 - 1
                          Catch::Contains("stretching&nbsp;=&nbsp;1.15") &&
                          Catch::Contains("reused") && Catch::Contains("Cross-section") &&
+                         Catch::Contains(">120 (process)<") && Catch::Contains(">100<") &&
                          Catch::Contains("edge mean"));
     // Edge lengths of the unit cube's tets: 1, sqrt 2 and sqrt 3.
     // The smallest-angle chart marks only the small angles (below 20 degrees).
