@@ -35,4 +35,10 @@ std::string duration_text(double seconds);
 std::string progress_line(const std::string& stage, double fraction, const std::string& what,
                           double elapsed_s, std::size_t width);
 
+/// What `frontmesh run` prints when it is done: the result, checkpoints, summary and log of
+/// output folder `dir`, and how to step through the run in ParaView (run-surface.pvd,
+/// run-volume.pvd). With `width` > 0 (stdout is a terminal of that many columns) each line
+/// is wrapped at spaces, continuations indented, as the run's other summary lines; 0: as is.
+std::string results_text(const std::string& result, const std::string& dir, std::size_t width);
+
 }  // namespace frontmesh::pipeline

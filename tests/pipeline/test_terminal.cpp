@@ -69,3 +69,26 @@ TEST_CASE("lines that only count zeros are recognised", "[pipeline][terminal]") 
     CHECK_FALSE(lists_only_zeros("extract: 3D surface nets, 0.5 relaxation"));
     CHECK_FALSE(lists_only_zeros("remesh: 0 faces, 10 vertices"));
 }
+
+TEST_CASE("the closing ParaView hint is wrapped on a terminal, as is in a pipe",
+          "[pipeline][terminal]") {
+    const std::string dir = "/data/studies/cohort-2026/subject-0042/frontmesh-output";
+    const std::string result = dir + "/mesh.vtu";
+    // In a pipe (width 0): the lines as before.
+    const std::string plain = results_text(result, dir, 0);
+    CHECK_THAT(plain, Catch::Contains("\nResult:      " + result + "\n") &&
+                          Catch::Contains("Step through the run in ParaView:  paraview " + dir +
+                                          "/run-surface.pvd\n  (the surface stages;"));
+    // On a terminal of 60 columns: no line longer, no word cut, both collections named.
+    const std::string wrapped = results_text(result, dir, 60);
+    std::istringstream in(wrapped);
+    for (std::string line; std::getline(in, line);) {
+        INFO(line);
+        const bool one_long_word = line.find(' ', line.find_first_not_of(' ')) == std::string::npos;
+        CHECK((line.size() <= 60 || one_long_word));
+    }
+    CHECK_THAT(wrapped, Catch::Contains(dir + "/run-surface.pvd") &&
+                            Catch::Contains(dir + "/run-volume.pvd"));
+    CHECK(wrapped.find("\n  ") != std::string::npos);  // continuations indented
+    CHECK(longest_line(plain) > 60);                   // there was something to wrap
+}
