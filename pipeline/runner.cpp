@@ -161,6 +161,24 @@ std::string input_hash(const Recipe& recipe) {
     return h.hex();
 }
 
+// `text` with `marker` replaced by the size in bytes of the result: the fixed point of
+// size = bytes(text without the marker) + digits(size). Each pass can only grow the digit
+// count, which a size of bounded length bounds: at most 20 passes (a size_t has 20 digits).
+std::string with_own_size(const std::string& text, const std::string& marker) {
+    const std::size_t at = text.find(marker);
+    if (at == std::string::npos) return text;
+    const std::size_t base = text.size() - marker.size();
+    std::size_t size = base + 1;
+    for (int pass = 0; pass < 20; ++pass) {
+        const std::size_t next = base + std::to_string(size).size();
+        if (next == size) break;
+        size = next;
+    }
+    std::string out = text;
+    out.replace(at, marker.size(), std::to_string(size));
+    return out;
+}
+
 std::string now_text() {
     const std::time_t t = std::time(nullptr);
     char buf[32];
@@ -1171,8 +1189,10 @@ void Run::write_summary(const std::string& status, const std::string& error) {
           << ", \"name\": " << (names_.has(labels[r]) ? json_quote(names_.name(labels[r])) : "null")
           << "}";
     // What this run wrote or found up to date (issue 22): its result files, collections and
-    // log, and the checkpoints of its stages; not files of earlier runs that the folder
-    // still holds (an export of a format no longer asked for, a checkpoint of a later stage).
+    // log, the checkpoints of its stages, the recipe when it lies in the folder (`frontmesh
+    // mesh` writes recipe.yaml there) and this summary.json; not files of earlier runs that
+    // the folder still holds (an export of a format no longer asked for, a checkpoint of a
+    // later stage).
     s << "],\n  \"outputs\": [";
     std::vector<fs::path> files;
     auto add = [&](const fs::path& file) {
@@ -1183,13 +1203,25 @@ void Run::write_summary(const std::string& status, const std::string& error) {
     for (const Kind kind : {Kind::Surface, Kind::Tets}) add(out_.dir / pvd_file_name(kind));
     add(out_.dir / "frontmesh.log");
     for (int i = entry_; i <= last_; ++i) add(out_.checkpoint(stages_[i]));
+    if (!recipe_.path.empty()) {
+        const fs::path recipe = fs::absolute(recipe_.path).lexically_normal();
+        const fs::path inside =
+            recipe.lexically_relative(fs::absolute(out_.dir).lexically_normal());
+        if (!inside.empty() && *inside.begin() != "..") add(recipe);
+    }
+    const fs::path summary = out_.dir / "summary.json";
+    files.erase(std::remove(files.begin(), files.end(), summary), files.end());
+    files.push_back(summary);  // its size is known only once the text is: a marker for now
     std::sort(files.begin(), files.end());
+    constexpr const char* kOwnSize = "@SUMMARY-BYTES@";
     for (std::size_t f = 0; f < files.size(); ++f)
         s << (f ? ",\n    " : "\n    ")
           << "{\"file\": " << json_quote(fs::relative(files[f], out_.dir).string())
-          << ", \"bytes\": " << fs::file_size(files[f]) << "}";
+          << ", \"bytes\": "
+          << (files[f] == summary ? std::string(kOwnSize) : std::to_string(fs::file_size(files[f])))
+          << "}";
     s << "],\n  \"effective_recipe\": " << effective_recipe_json(recipe_) << "\n}\n";
-    io::write_text_atomically((out_.dir / "summary.json").string(), s.str());
+    io::write_text_atomically(summary.string(), with_own_size(s.str(), kOwnSize));
 }
 
 }  // namespace
