@@ -254,23 +254,30 @@ public:
         const std::lock_guard lock(mutex_);
         write_file("INFO  " + message);
     }
-    /// The stage whose progress follows starts now (its elapsed time counts from here).
+    /// The stage whose progress follows starts now (its elapsed time counts from here). On a
+    /// terminal the progress line is then also redrawn once a second (ticker_) until
+    /// clear_progress(), so that its elapsed time moves while a long phase reports nothing.
     void begin_stage() {
-        const std::lock_guard lock(mutex_);
-        stage_start_ = std::chrono::steady_clock::now();
-        last_what_.clear();
+        {
+            const std::lock_guard lock(mutex_);
+            stage_start_ = std::chrono::steady_clock::now();
+            last_what_.clear();
+            shown_.reset();
+            has_progress_ = false;
+        }
+        if (tty_ && !quiet_) ticker_.start();
     }
     void progress(const std::string& stage, double fraction, const std::string& what) {
         if (quiet_) return;
         const std::lock_guard lock(mutex_);
         if (tty_) {
-            // One line redrawn in place: stage, percent, elapsed time and time left.
-            const double elapsed =
-                std::chrono::duration<double>(std::chrono::steady_clock::now() - stage_start_)
-                    .count();
-            std::cerr << "\r\033[K" << progress_line(stage, fraction, what, elapsed, columns())
-                      << std::flush;
-            progress_shown_ = true;
+            // One line redrawn in place: stage, percent, elapsed time and time left; the
+            // percent never goes back within a stage (a new remesh round counts from 0).
+            stage_ = stage;
+            what_ = what;
+            fraction_ = shown_.update(fraction);
+            has_progress_ = true;
+            draw_progress_locked();
         } else if (what != last_what_) {
             const int percent = static_cast<int>(fraction * 100.0 + 0.5);
             char buf[200];
@@ -280,12 +287,27 @@ public:
         }
         last_what_ = what;
     }
+    /// Ends the stage's progress line: stops the redraws (joins ticker_) and erases it.
     void clear_progress() {
+        ticker_.stop();  // not under mutex_: a tick under way takes it
         const std::lock_guard lock(mutex_);
+        has_progress_ = false;
         clear_progress_locked();
     }
 
 private:
+    // ticker_'s thread: the last progress line again, with the elapsed time now.
+    void redraw() {
+        const std::lock_guard lock(mutex_);
+        if (has_progress_) draw_progress_locked();
+    }
+    void draw_progress_locked() {
+        const double elapsed =
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - stage_start_).count();
+        std::cerr << "\r\033[K" << progress_line(stage_, fraction_, what_, elapsed, columns())
+                  << std::flush;
+        progress_shown_ = true;
+    }
     static std::size_t columns() {
         const std::size_t n = terminal_columns(STDERR_FILENO);
         return n > 0 ? n : kDefaultColumns;
@@ -311,6 +333,13 @@ private:
     std::chrono::steady_clock::time_point stage_start_ = std::chrono::steady_clock::now();
     std::ofstream file_;
     std::vector<std::string> pending_;
+    // The last progress event on a terminal, for the redraws.
+    std::string stage_, what_;
+    double fraction_ = 0.0;
+    bool has_progress_ = false;
+    ShownFraction shown_;
+    // Last: destroyed (stopped and joined) before the members its ticks use.
+    ProgressTicker ticker_{[this] { redraw(); }};
 };
 
 struct Outputs {
@@ -793,6 +822,9 @@ StageOutput Run::call_stage(int i, core::StageContext& ctx) {
                   stage.name + " failed: " + e.what() + " [" + e.where() + "]");
         fs::remove(out_.with_ext(stage, ".json"));
         write_summary("failed", stage.name + ": " + e.what());
+        throw;
+    } catch (...) {  // our bug (exit 1): no more redraws of the progress line
+        log_.clear_progress();
         throw;
     }
 }

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <utility>
 
 namespace frontmesh::pipeline {
 
@@ -126,6 +127,42 @@ std::string progress_line(const std::string& stage, double fraction, const std::
     if (!what.empty()) line += "  " + what;
     if (width > 0 && line.size() >= width) line.resize(width - 1);  // the cursor's column
     return line;
+}
+
+double ShownFraction::update(double reported) {
+    if (!std::isfinite(reported)) reported = 0.0;
+    shown_ = std::max(shown_, std::clamp(reported, 0.0, 1.0));
+    return shown_;
+}
+
+ProgressTicker::ProgressTicker(std::function<void()> tick, std::chrono::milliseconds period)
+    : tick_(std::move(tick)), period_(period) {}
+
+ProgressTicker::~ProgressTicker() { stop(); }
+
+void ProgressTicker::start() {
+    if (thread_.joinable()) return;
+    stopping_ = false;
+    thread_ = std::thread([this] {
+        std::unique_lock lock(mutex_);
+        // Ends when stop() sets stopping_ (it then joins): one tick per period until then.
+        while (!stopping_) {
+            if (wake_.wait_for(lock, period_, [this] { return stopping_; })) break;
+            lock.unlock();
+            tick_();
+            lock.lock();
+        }
+    });
+}
+
+void ProgressTicker::stop() {
+    if (!thread_.joinable()) return;
+    {
+        const std::lock_guard lock(mutex_);
+        stopping_ = true;
+    }
+    wake_.notify_all();
+    thread_.join();
 }
 
 std::string results_text(const std::string& result, const std::string& dir, std::size_t width) {

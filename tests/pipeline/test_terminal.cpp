@@ -1,8 +1,13 @@
 // What a run shows on a terminal (issue 22, item 10): progress with elapsed time and time
 // left, long lines broken at word boundaries.
 
+#include <chrono>
+#include <cmath>
+#include <condition_variable>
+#include <mutex>
 #include <sstream>
 #include <string>
+#include <thread>
 
 #include <catch2/catch.hpp>
 
@@ -91,4 +96,59 @@ TEST_CASE("the closing ParaView hint is wrapped on a terminal, as is in a pipe",
                             Catch::Contains(dir + "/run-volume.pvd"));
     CHECK(wrapped.find("\n  ") != std::string::npos);  // continuations indented
     CHECK(longest_line(plain) > 60);                   // there was something to wrap
+}
+
+TEST_CASE("the shown fraction never goes back within a stage", "[pipeline][terminal]") {
+    ShownFraction shown;
+    CHECK(shown.update(0.4) == 0.4);
+    CHECK(shown.update(0.1) == 0.4);  // a second remesh round counting from 0 again
+    CHECK(shown.update(0.7) == 0.7);
+    CHECK(shown.update(std::nan("")) == 0.7);
+    CHECK(shown.update(3.0) == 1.0);
+    shown.reset();  // the next stage
+    CHECK(shown.update(0.1) == Approx(0.1));
+}
+
+TEST_CASE("the progress ticker redraws between events until it is stopped",
+          "[pipeline][terminal]") {
+    // No timing asserted: the test waits (up to a generous bound, against a hang) until the
+    // ticker has ticked twice on its own, then checks that stop() ends the ticks.
+    std::mutex mutex;
+    std::condition_variable ticked;
+    int ticks = 0;
+    ProgressTicker ticker(
+        [&] {
+            const std::lock_guard lock(mutex);
+            ++ticks;
+            ticked.notify_all();
+        },
+        std::chrono::milliseconds(1));
+    CHECK_FALSE(ticker.is_running());
+    ticker.start();
+    ticker.start();  // a second start changes nothing
+    CHECK(ticker.is_running());
+    {
+        std::unique_lock lock(mutex);
+        CHECK(ticked.wait_for(lock, std::chrono::seconds(60), [&] { return ticks >= 2; }));
+    }
+    ticker.stop();
+    CHECK_FALSE(ticker.is_running());
+    int after_stop = 0;
+    {
+        const std::lock_guard lock(mutex);
+        after_stop = ticks;
+    }
+    std::this_thread::yield();
+    {
+        const std::lock_guard lock(mutex);
+        CHECK(ticks == after_stop);  // joined: no tick after stop() returned
+    }
+    ticker.stop();  // harmless
+    // It can run again (the next stage).
+    ticker.start();
+    {
+        std::unique_lock lock(mutex);
+        CHECK(ticked.wait_for(lock, std::chrono::seconds(60),
+                              [&] { return ticks >= after_stop + 1; }));
+    }
 }
