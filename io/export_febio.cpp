@@ -3,7 +3,9 @@
 // Module (solid, units mm-N-s), Control (one STATIC step: time_steps, step_size,
 // time_stepper, a solid solver with BFGS updates), Material (one placeholder per region,
 // units in a comment), Mesh (Nodes; one Elements part per region; the ElementSet
-// all_elements; a Surface per boundary and per side of an interface, a NodeSet per surface;
+// all_elements and the PartList all_parts (every part: FEBio 4.3 and later read PartList,
+// FEBio 4.0-4.2 refuse the tag); a Surface per boundary and per side of an interface, a
+// NodeSet per surface;
 // the whole outer boundary as Surface "boundary" and NodeSet "boundary_NODES"; a
 // SurfacePair per interface), MeshDomains (a SolidDomain per part with its material) and
 // Output (a plot file with displacement and stress). Write only.
@@ -119,6 +121,12 @@ void write_febio(const core::TetMesh& mesh, const std::string& path, const Label
             out << "\t\t</Elements>\n";
         }
         out << "\t\t<ElementSet name=\"all_elements\">1:" << mesh.tet_count() << "</ElementSet>\n";
+        // Every part by name, for what FEBio takes as a list of parts (a surface extracted
+        // from them, a domain list). FEBio splits the list at commas without trimming: no
+        // spaces.
+        out << "\t\t<PartList name=\"all_parts\">";
+        for (std::size_t r = 0; r < regions.size(); ++r) out << (r ? "," : "") << regions[r].name;
+        out << "</PartList>\n";
         // Tags (README "Tag numbers"): a surface's is in a comment before it.
         std::vector<std::int32_t> outer;
         for (const auto& g : surfaces) {

@@ -1,5 +1,7 @@
 #include "pipeline/cli.h"
 
+#include <unistd.h>
+
 #include <algorithm>
 #include <cstring>
 #include <filesystem>
@@ -25,6 +27,7 @@
 #include "pipeline/recipe.h"
 #include "pipeline/resource_estimate.h"
 #include "pipeline/runner.h"
+#include "pipeline/terminal.h"
 #include "pipeline/version.h"
 
 namespace frontmesh::pipeline {
@@ -181,15 +184,8 @@ Arguments parse(int argc, char** argv) {
 // Runs the recipe and prints where its results are.
 int run_and_report(const Recipe& recipe, const RunOptions& options) {
     const std::string result = run_recipe(recipe, options);
-    const auto dir = std::filesystem::path(recipe.output.dir);
-    std::cout << "\nResult:      " << result << "\nCheckpoints: " << (dir / "checkpoints").string()
-              << "\nSummary:     " << (dir / "summary.json").string()
-              << "\nLog:         " << (dir / "frontmesh.log").string()
-              << "\nStep through the run in ParaView:  paraview "
-              << (dir / "run-surface.pvd").string()
-              << "\n  (the surface stages; colour by region_in, eta or min_angle), and "
-              << (dir / "run-volume.pvd").string()
-              << "\n  (the tet stages, when the run made tets; colour by region or skewness)\n";
+    // Wrapped at the terminal's width like the run's other summary lines; as is in a pipe.
+    std::cout << results_text(result, recipe.output.dir, terminal_columns(STDOUT_FILENO));
     return 0;
 }
 

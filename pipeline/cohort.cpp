@@ -265,6 +265,7 @@ struct Job {
     std::size_t index = 0;  // in manifest order
     pid_t pid = -1;
     Clock::time_point start;
+    fs::file_time_type written_since;  // a summary.json written after this is the run's
 };
 
 // The last "frontmesh: error:" line of a child's output, without that prefix.
@@ -280,6 +281,47 @@ std::string last_error_line(const fs::path& log) {
             found = line.substr(std::strlen("frontmesh: "));
     }
     return found;
+}
+
+// The record of the subject's run in its summary.json (issue 22): the summary's path, the
+// recipe file, the run's start and end, and the input image's dims and spacing. Only a
+// summary.json written since `since` (by this run: a failed run may have left an older one
+// in place) is read; a file that cannot be read leaves the fields empty.
+void read_subject_record(SubjectResult& r, fs::file_time_type since) {
+    const fs::path path = fs::path(r.dir) / "summary.json";
+    std::error_code ec;
+    const auto written = fs::last_write_time(path, ec);
+    if (ec || written < since) return;
+    JsonValue summary;
+    try {
+        summary = JsonReader(read_text(path), path.string()).document();
+    } catch (const core::Error&) {
+        return;  // read_subject_summary reports an unreadable summary of a run that exited 0
+    }
+    r.summary = path.string();
+    auto text = [&](const JsonValue* object, const char* key) {
+        const JsonValue* v = object ? object->member(key) : nullptr;
+        return v && v->kind == JsonValue::Kind::String ? v->text : std::string();
+    };
+    r.recipe = text(&summary, "recipe");
+    r.started = text(&summary, "started");
+    r.finished = text(&summary, "finished");
+    const JsonValue* image = summary.member("input_image");
+    auto triple = [&](const char* key) -> std::optional<std::array<double, 3>> {
+        const JsonValue* v = image ? image->member(key) : nullptr;
+        if (!v || v->kind != JsonValue::Kind::Array || v->items.size() != 3) return std::nullopt;
+        std::array<double, 3> out{};
+        for (std::size_t k = 0; k < 3; ++k) {
+            if (v->items[k].kind != JsonValue::Kind::Number) return std::nullopt;
+            out[k] = v->items[k].number;
+        }
+        return out;
+    };
+    if (const auto dims = triple("dims"))
+        r.image_dims = std::array<long long, 3>{static_cast<long long>((*dims)[0]),
+                                                static_cast<long long>((*dims)[1]),
+                                                static_cast<long long>((*dims)[2])};
+    r.image_spacing_mm = triple("spacing_mm");
 }
 
 // Fills status and figures of a subject whose run exited 0 from its summary.json.
@@ -428,6 +470,23 @@ std::string json_list(const std::vector<std::string>& items) {
     return text + "]";
 }
 
+template <typename T>
+std::string json_triple(const std::optional<std::array<T, 3>>& triple) {
+    if (!triple) return "null";
+    std::string text = "[";
+    for (std::size_t k = 0; k < 3; ++k) {
+        if constexpr (std::is_floating_point_v<T>)
+            text += (k ? ", " : "") + json_number((*triple)[k]);
+        else
+            text += (k ? ", " : "") + std::to_string((*triple)[k]);
+    }
+    return text + "]";
+}
+
+std::string json_text_or_null(const std::string& text) {
+    return text.empty() ? std::string("null") : json_quote(text);
+}
+
 void write_summaries(const CohortResult& result, const Manifest& manifest,
                      const std::string& recipe, int jobs) {
     std::ostringstream csv;
@@ -436,8 +495,15 @@ void write_summaries(const CohortResult& result, const Manifest& manifest,
         for (const auto& item : items) text += (text.empty() ? "" : ";") + item;
         return text;
     };
+    auto triple_text = [](const auto& triple) {
+        if (!triple) return std::string();
+        std::ostringstream out;
+        out << (*triple)[0] << ';' << (*triple)[1] << ';' << (*triple)[2];
+        return out.str();
+    };
     csv << "id,status,exit_code,wall_s,total_wall_s,faces,regions,regions_closed,nodes,tets,"
-           "fraction_skewness_over_0.8,min_dihedral_deg,region_names,outputs,error\n";
+           "fraction_skewness_over_0.8,min_dihedral_deg,region_names,outputs,image,started,"
+           "finished,image_dims,image_spacing_mm,summary,recipe,error\n";
     for (const auto& r : result.subjects)
         csv << csv_field(r.id) << ',' << subject_status_name(r.status) << ',' << r.exit_code << ','
             << optional_text(std::optional<double>(r.wall_s)) << ','
@@ -446,7 +512,10 @@ void write_summaries(const CohortResult& result, const Manifest& manifest,
             << optional_text(r.nodes) << ',' << optional_text(r.tets) << ','
             << optional_text(r.skewness_over_08) << ',' << optional_text(r.min_dihedral_deg) << ','
             << csv_field(joined(r.region_names)) << ',' << csv_field(joined(r.outputs)) << ','
-            << csv_field(r.error) << '\n';
+            << csv_field(r.image) << ',' << csv_field(r.started) << ',' << csv_field(r.finished)
+            << ',' << triple_text(r.image_dims) << ',' << triple_text(r.image_spacing_mm) << ','
+            << csv_field(r.summary) << ',' << csv_field(r.recipe) << ',' << csv_field(r.error)
+            << '\n';
     io::write_text_atomically((fs::path(result.root) / kSummaryCsv).string(), csv.str());
 
     std::ostringstream json;
@@ -472,6 +541,12 @@ void write_summaries(const CohortResult& result, const Manifest& manifest,
              << ",\n     \"region_names\": " << json_list(r.region_names)
              << ", \"outputs\": " << json_list(r.outputs)
              << ",\n     \"image\": " << json_quote(manifest.subjects[i].image)
+             << ", \"image_dims\": " << json_triple(r.image_dims)
+             << ", \"image_spacing_mm\": " << json_triple(r.image_spacing_mm)
+             << ",\n     \"started\": " << json_text_or_null(r.started)
+             << ", \"finished\": " << json_text_or_null(r.finished)
+             << ", \"summary\": " << json_text_or_null(r.summary)
+             << ", \"recipe\": " << json_text_or_null(r.recipe)
              << ", \"dir\": " << json_quote(r.dir)
              << ", \"log\": " << json_quote((fs::path(r.dir) / kRunLog).string())
              << ", \"error\": " << (r.error.empty() ? std::string("null") : json_quote(r.error))
@@ -742,6 +817,7 @@ CohortResult run_cohort(const std::string& manifest_path, const CohortOptions& o
         SubjectResult& r = result.subjects[index];
         r.id = subject.id;
         r.dir = (fs::path(result.root) / subject.id).string();
+        r.image = subject.image;
         std::vector<std::string> args = {"frontmesh", "run", recipe_path};
         for (const auto& o : subject_overrides(options, subject, subject.image, r.dir)) {
             args.push_back("--set");
@@ -758,6 +834,9 @@ CohortResult run_cohort(const std::string& manifest_path, const CohortOptions& o
             args.push_back(std::to_string(options.threads));
         }
         const auto t0 = Clock::now();
+        // Less a second: file times come from a coarser kernel clock than now() (a few ms
+        // behind it); an earlier run's summary is older than that by far.
+        const auto written_since = fs::file_time_type::clock::now() - std::chrono::seconds(1);
         std::string error;
         pid_t pid = -1;
         try {
@@ -774,7 +853,7 @@ CohortResult run_cohort(const std::string& manifest_path, const CohortOptions& o
             report(r);
             return;
         }
-        running.push_back(Job{index, pid, t0});
+        running.push_back(Job{index, pid, t0, written_since});
     };
     // A run refused as bad input (exit 2) for a value of the manifest's row, its image or
     // one of its cells (the error starts with that key), is the row's error: it names the
@@ -798,6 +877,7 @@ CohortResult run_cohort(const std::string& manifest_path, const CohortOptions& o
             r.exit_code = 128 + sig;
             r.error = "killed by signal " + std::to_string(sig) + " (" + strsignal(sig) + ")";
         }
+        read_subject_record(r, job.written_since);
         if (r.exit_code == 0) {
             read_subject_summary(r);
         } else {

@@ -2,6 +2,7 @@
 // Cohorts: one recipe run over many subjects listed in a CSV manifest, each subject in its
 // own child process (`frontmesh run`), N at a time, with one summary for the whole cohort.
 
+#include <array>
 #include <cstddef>
 #include <functional>
 #include <optional>
@@ -78,6 +79,13 @@ struct SubjectResult {
     std::optional<double> min_dihedral_deg;            ///< smallest dihedral angle of the tets
     std::vector<std::string> region_names;  ///< "LABEL:NAME" (or "LABEL") per region of the result
     std::vector<std::string> outputs;       ///< result files in ROOT/ID (not the checkpoints)
+    std::string image;                      ///< the manifest's image, absolute
+    /// From the subject's summary.json when this run wrote it (empty / nullopt otherwise):
+    /// its path, the recipe file it ran, when it started and finished (ISO 8601), and the
+    /// input image's dims (voxels) and spacing (mm) as read (none for a surface input).
+    std::string summary, recipe, started, finished;
+    std::optional<std::array<long long, 3>> image_dims;
+    std::optional<std::array<double, 3>> image_spacing_mm;
     std::string error;  ///< failed: the child's last "frontmesh: error:" line, without that prefix
 };
 

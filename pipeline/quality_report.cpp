@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "io/atomic_file.h"
+#include "io/label_table.h"
 #include "pipeline/core/error.h"
 #include "pipeline/core/quality.h"
 
@@ -91,11 +92,15 @@ struct EdgeSums {
     }
 };
 
-// Colour of the i-th region: hues a golden angle apart, so neighbours in label order differ.
-std::string region_colour(std::size_t i) {
-    char buf[40];
-    std::snprintf(buf, sizeof buf, "hsl(%.0f,60%%,%d%%)",
-                  std::fmod(20.0 + 137.508 * double(i), 360.0), i % 2 ? 42 : 58);
+// Colour of `label` as mesh.vtu's `colour` array has it: the label table's (`colours`),
+// else io::default_colour. A function of the label alone, so a region keeps its colour
+// across runs with other labels and matches the VTU (a colour per position in the run, as
+// before, changed when a label was added before it).
+std::string region_colour(core::Label label, const std::map<core::Label, io::Rgb>& colours) {
+    const auto it = colours.find(label);
+    const io::Rgb rgb = it != colours.end() ? it->second : io::default_colour(label);
+    char buf[8];
+    std::snprintf(buf, sizeof buf, "#%02x%02x%02x", rgb[0], rgb[1], rgb[2]);
     return buf;
 }
 
@@ -260,7 +265,8 @@ std::string svg_histogram(const std::string& title, const std::string& x_label, 
 }
 
 std::string svg_cross_section(const core::TetMesh& mesh,
-                              const std::map<core::Label, std::string>& names) {
+                              const std::map<core::Label, std::string>& names,
+                              const std::map<core::Label, io::Rgb>& colours) {
     constexpr double W = 720, L = 16, T = 40, legend_row = 18;
     Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
     Eigen::Vector3d hi = -lo;
@@ -361,8 +367,9 @@ std::string svg_cross_section(const core::TetMesh& mesh,
     for (std::size_t i = 0; i < labels.size(); ++i) {
         const auto it = paths.find(labels[i]);
         if (it == paths.end()) continue;
-        o << "<path class=\"region\" data-label=\"" << labels[i] << "\" fill=\"" << region_colour(i)
-          << "\" stroke=\"white\" stroke-width=\"0.4\" d=\"" << it->second << "\"/>\n";
+        o << "<path class=\"region\" data-label=\"" << labels[i] << "\" fill=\""
+          << region_colour(labels[i], colours) << "\" stroke=\"white\" stroke-width=\"0.4\" d=\""
+          << it->second << "\"/>\n";
     }
     // A scale bar of a round length near a fifth of the picture's width.
     const double bar_mm = nice_ceiling(span_x / 6.0);
@@ -381,8 +388,8 @@ std::string svg_cross_section(const core::TetMesh& mesh,
         if (name != names.end()) text += " " + name->second;
         if (text.size() > 30) text = text.substr(0, 29) + "...";
         o << "<rect x=\"" << x << "\" y=\"" << y - 11 << "\" width=\"12\" height=\"12\" fill=\""
-          << region_colour(i) << "\"/><text x=\"" << x + 17 << "\" y=\"" << y << "\">"
-          << escaped(text) << " (" << cut[labels[i]] << " cut)</text>\n";
+          << region_colour(labels[i], colours) << "\"/><text x=\"" << x + 17 << "\" y=\"" << y
+          << "\">" << escaped(text) << " (" << cut[labels[i]] << " cut)</text>\n";
     }
     o << "</svg>\n";
     return o.str();
@@ -442,7 +449,8 @@ std::vector<std::string> write_quality_report(const std::string& dir, const core
     const std::string min_dihedral_svg = svg_histogram("Smallest dihedral angle per tet", "degrees",
                                                        0, 180, min_dihedral, kNever, 20.0);
 
-    const std::string section_svg = svg_cross_section(mesh, context.region_names);
+    const std::string section_svg =
+        svg_cross_section(mesh, context.region_names, context.region_colours);
 
     const fs::path out(dir);
     std::vector<std::string> written;
@@ -486,13 +494,13 @@ std::vector<std::string> write_quality_report(const std::string& dir, const core
       << (before ? "<th>mean before refine</th>" : "")
       << "<th>max skewness</th><th>skewness &gt; 0.8</th><th>min dihedral (deg)</th>"
          "<th>edge mean &plusmn; sd (mm)</th><th>edge min / max (mm)</th></tr>\n";
-    std::size_t colour_index = 0;
     for (const auto& [label, r] : after.regions) {
         const auto voxels = context.voxel_volume_mm3.find(label);
         const bool has_voxels = voxels != context.voxel_volume_mm3.end() && voxels->second > 0;
-        h << "<tr><td><span class=\"swatch\" style=\"background:" << region_colour(colour_index++)
-          << "\"></span>" << label << "</td><td class=\"text\">" << region_name(label)
-          << "</td><td>" << r.tets << "</td><td>" << fixed(r.volume_mm3, 2) << "</td><td>"
+        h << "<tr><td><span class=\"swatch\" style=\"background:"
+          << region_colour(label, context.region_colours) << "\"></span>" << label
+          << "</td><td class=\"text\">" << region_name(label) << "</td><td>" << r.tets
+          << "</td><td>" << fixed(r.volume_mm3, 2) << "</td><td>"
           << (has_voxels ? fixed(voxels->second, 2) : "-") << "</td><td>"
           << (has_voxels ? fixed(100.0 * (r.volume_mm3 - voxels->second) / voxels->second, 2) + "%"
                          : "-")
@@ -541,14 +549,15 @@ std::vector<std::string> write_quality_report(const std::string& dir, const core
 
     if (!context.stages.empty()) {
         h << "<h2>Stages</h2>\n<table><tr><th>stage</th><th>status</th><th>wall time (s)</th>"
-             "<th>peak memory (MB)</th><th>parameters</th></tr>\n";
+             "<th>peak memory (MB; the stage's own, else marked: the process's so far)</th>"
+             "<th>parameters</th></tr>\n";
         double total = 0.0;
         for (const auto& stage : context.stages) {
             total += stage.wall_s;
             h << "<tr><td>" << escaped(stage.name) << "</td><td class=\"text\">"
               << (stage.reused ? "reused (timing of the run that made it)" : "ran") << "</td><td>"
               << fixed(stage.wall_s, 2) << "</td><td>" << fixed(stage.peak_rss_mb, 0)
-              << "</td><td class=\"params\">";
+              << (stage.peak_is_process ? " (process)" : "") << "</td><td class=\"params\">";
             for (std::size_t k = 0; k < stage.parameters.size(); ++k) {
                 const auto& [key, value] = stage.parameters[k];
                 h << (k ? ", " : "") << escaped(key.substr(key.find('.') + 1)) << "&nbsp;=&nbsp;"

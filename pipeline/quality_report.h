@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "io/label_table.h"
 #include "pipeline/core/quality.h"
 #include "pipeline/core/tet_mesh.h"
 
@@ -46,24 +47,31 @@ struct QualityHistograms {
 struct ReportContext {
     std::string title = "frontmesh run";              ///< heads the page (e.g. the recipe)
     std::map<core::Label, std::string> region_names;  ///< from the label table
-    std::map<core::Label, double> voxel_volume_mm3;   ///< per label: its voxels' volume
-    std::string frame;                                ///< "lps" or "ras"
+    /// From the label table (io::LabelTable::colour); a label not here gets
+    /// io::default_colour, as in mesh.vtu's `colour` array.
+    std::map<core::Label, io::Rgb> region_colours;
+    std::map<core::Label, double> voxel_volume_mm3;  ///< per label: its voxels' volume
+    std::string frame;                               ///< "lps" or "ras"
     /// One stage of the run: timings and the parameters it ran with.
     struct Stage {
         std::string name;
         bool reused = false;  ///< its checkpoint was reused: timings of the run that made it
         double wall_s = 0.0, peak_rss_mb = 0.0;
         std::vector<std::pair<std::string, std::string>> parameters;  ///< key, value (YAML)
+        /// peak_rss_mb is the process's peak so far, not the stage's (no VmHWM reset).
+        bool peak_is_process = false;
     };
     std::vector<Stage> stages;
 };
 
 /// A picture of the mesh: the tets cut by the plane z = mid-height of the mesh's bounding
-/// box, one polygon per tet drawn in its region's colour (outlined, so elements show),
-/// with a legend of region names (`names`, else the labels) and a millimetre scale.
-/// Self-contained SVG text, about 100 bytes per cut tet. O(tets).
+/// box, one polygon per tet drawn in its region's colour (`colours`, else io::default_colour:
+/// the colours of mesh.vtu; outlined, so elements show), with a legend of region names
+/// (`names`, else the labels) and a millimetre scale. Self-contained SVG text, about 100
+/// bytes per cut tet. O(tets).
 std::string svg_cross_section(const core::TetMesh& mesh,
-                              const std::map<core::Label, std::string>& names = {});
+                              const std::map<core::Label, std::string>& names = {},
+                              const std::map<core::Label, io::Rgb>& colours = {});
 
 /// Histograms of `mesh` (deterministic; O(tets + faces)). `figures`, when given, are
 /// core::tet_figures of every tet in order (else computed here).

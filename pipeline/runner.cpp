@@ -1,6 +1,5 @@
 #include "pipeline/runner.h"
 
-#include <sys/resource.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -33,6 +32,7 @@
 #include "pipeline/core/surface_check.h"
 #include "pipeline/diagnostics.h"
 #include "pipeline/output_dir.h"
+#include "pipeline/peak_memory.h"
 #include "pipeline/quality_report.h"
 #include "pipeline/report.h"
 #include "pipeline/resource_estimate.h"
@@ -161,10 +161,22 @@ std::string input_hash(const Recipe& recipe) {
     return h.hex();
 }
 
-double peak_rss_mb() {
-    rusage usage{};
-    getrusage(RUSAGE_SELF, &usage);
-    return static_cast<double>(usage.ru_maxrss) / 1024.0;  // ru_maxrss is in KiB on Linux
+// `text` with `marker` replaced by the size in bytes of the result: the fixed point of
+// size = bytes(text without the marker) + digits(size). Each pass can only grow the digit
+// count, which a size of bounded length bounds: at most 20 passes (a size_t has 20 digits).
+std::string with_own_size(const std::string& text, const std::string& marker) {
+    const std::size_t at = text.find(marker);
+    if (at == std::string::npos) return text;
+    const std::size_t base = text.size() - marker.size();
+    std::size_t size = base + 1;
+    for (int pass = 0; pass < 20; ++pass) {
+        const std::size_t next = base + std::to_string(size).size();
+        if (next == size) break;
+        size = next;
+    }
+    std::string out = text;
+    out.replace(at, marker.size(), std::to_string(size));
+    return out;
 }
 
 std::string now_text() {
@@ -242,23 +254,30 @@ public:
         const std::lock_guard lock(mutex_);
         write_file("INFO  " + message);
     }
-    /// The stage whose progress follows starts now (its elapsed time counts from here).
+    /// The stage whose progress follows starts now (its elapsed time counts from here). On a
+    /// terminal the progress line is then also redrawn once a second (ticker_) until
+    /// clear_progress(), so that its elapsed time moves while a long phase reports nothing.
     void begin_stage() {
-        const std::lock_guard lock(mutex_);
-        stage_start_ = std::chrono::steady_clock::now();
-        last_what_.clear();
+        {
+            const std::lock_guard lock(mutex_);
+            stage_start_ = std::chrono::steady_clock::now();
+            last_what_.clear();
+            shown_.reset();
+            has_progress_ = false;
+        }
+        if (tty_ && !quiet_) ticker_.start();
     }
     void progress(const std::string& stage, double fraction, const std::string& what) {
         if (quiet_) return;
         const std::lock_guard lock(mutex_);
         if (tty_) {
-            // One line redrawn in place: stage, percent, elapsed time and time left.
-            const double elapsed =
-                std::chrono::duration<double>(std::chrono::steady_clock::now() - stage_start_)
-                    .count();
-            std::cerr << "\r\033[K" << progress_line(stage, fraction, what, elapsed, columns())
-                      << std::flush;
-            progress_shown_ = true;
+            // One line redrawn in place: stage, percent, elapsed time and time left; the
+            // percent never goes back within a stage (a new remesh round counts from 0).
+            stage_ = stage;
+            what_ = what;
+            fraction_ = shown_.update(fraction);
+            has_progress_ = true;
+            draw_progress_locked();
         } else if (what != last_what_) {
             const int percent = static_cast<int>(fraction * 100.0 + 0.5);
             char buf[200];
@@ -268,12 +287,27 @@ public:
         }
         last_what_ = what;
     }
+    /// Ends the stage's progress line: stops the redraws (joins ticker_) and erases it.
     void clear_progress() {
+        ticker_.stop();  // not under mutex_: a tick under way takes it
         const std::lock_guard lock(mutex_);
+        has_progress_ = false;
         clear_progress_locked();
     }
 
 private:
+    // ticker_'s thread: the last progress line again, with the elapsed time now.
+    void redraw() {
+        const std::lock_guard lock(mutex_);
+        if (has_progress_) draw_progress_locked();
+    }
+    void draw_progress_locked() {
+        const double elapsed =
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - stage_start_).count();
+        std::cerr << "\r\033[K" << progress_line(stage_, fraction_, what_, elapsed, columns())
+                  << std::flush;
+        progress_shown_ = true;
+    }
     static std::size_t columns() {
         const std::size_t n = terminal_columns(STDERR_FILENO);
         return n > 0 ? n : kDefaultColumns;
@@ -299,6 +333,13 @@ private:
     std::chrono::steady_clock::time_point stage_start_ = std::chrono::steady_clock::now();
     std::ofstream file_;
     std::vector<std::string> pending_;
+    // The last progress event on a terminal, for the redraws.
+    std::string stage_, what_;
+    double fraction_ = 0.0;
+    bool has_progress_ = false;
+    ShownFraction shown_;
+    // Last: destroyed (stopped and joined) before the members its ticks use.
+    ProgressTicker ticker_{[this] { redraw(); }};
 };
 
 struct Outputs {
@@ -428,6 +469,7 @@ private:
     const std::atomic<bool>* cancel_;
     const std::vector<StageDef>& stages_;
     const std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();
+    PeakMemory stage_memory_;  ///< reset at each stage's start (run_one)
     Log log_;
     const Outputs out_;
     const std::string frame_;
@@ -681,6 +723,7 @@ void Run::run_one(int i) {
     log_.begin_stage();
     diagnostics_.start(stage.name);
     std::vector<core::TetFigures>().swap(figures_);  // the last stage's: not held while this runs
+    stage_memory_.start();  // the stage's own peak from here to its summary (with its checkpoint)
     const auto t0 = std::chrono::steady_clock::now();
     const auto started = std::chrono::system_clock::now();
     // A surface stage that loses a whole region says so (issue 20: nothing disappears
@@ -780,6 +823,9 @@ StageOutput Run::call_stage(int i, core::StageContext& ctx) {
         fs::remove(out_.with_ext(stage, ".json"));
         write_summary("failed", stage.name + ": " + e.what());
         throw;
+    } catch (...) {  // our bug (exit 1): no more redraws of the progress line
+        log_.clear_progress();
+        throw;
     }
 }
 
@@ -846,13 +892,15 @@ void Run::write_stage_summary(int i, const core::StageContext& ctx, double wall,
     } else if (const auto* surface = std::get_if<core::SurfaceNetwork>(&data_)) {
         labels = core::region_labels(*surface);
     }
+    const double peak_mb = stage_memory_.peak_mb();
     std::ostringstream part;
     part << "{\"name\": " << json_quote(stage.name)
          << ", \"status\": \"ran\", \"reused\": false, \"started\": "
          << json_quote(iso_time(started))
          << ", \"finished\": " << json_quote(iso_time(std::chrono::system_clock::now()))
-         << ", \"wall_s\": " << json_number(wall)
-         << ", \"peak_rss_mb\": " << json_number(peak_rss_mb()) << ", \"checkpoint\": "
+         << ", \"wall_s\": " << json_number(wall) << ", \"peak_rss_mb\": " << json_number(peak_mb)
+         << ", \"peak_rss_scope\": " << json_quote(peak_scope_name(stage_memory_.scope()))
+         << ", \"checkpoint\": "
          << json_quote(fs::relative(out_.checkpoint(stage), out_.dir).string())
          << ", \"hash\": " << json_quote(hashes_[i]) << ",\n     \"counters\": {";
     bool any = false;
@@ -880,8 +928,8 @@ void Run::write_stage_summary(int i, const core::StageContext& ctx, double wall,
     io::write_text_atomically(out_.with_ext(stage, ".hash").string(), hashes_[i] + "\n");  // last
     committed(out_.with_ext(stage, ".hash"));
     char buf[120];
-    std::snprintf(buf, sizeof buf, "%s done in %.2f s, peak memory %.0f MB: ", stage.name.c_str(),
-                  wall, peak_rss_mb());
+    std::snprintf(buf, sizeof buf, "%s done in %.2f s, peak memory %.0f MB%s: ", stage.name.c_str(),
+                  wall, peak_mb, stage_memory_.scope() == PeakScope::Stage ? "" : " (process)");
     info(buf + quality.line);
 }
 
@@ -1058,6 +1106,12 @@ ReportContext Run::report_context() const {
     context.title = recipe_.path;
     context.frame = frame_;
     context.region_names = names_.names();
+    // The table's colours as the VTU writes them (io::LabelTable::colour); other labels get
+    // io::default_colour in the report too.
+    for (const auto& [label, name] : names_.names()) {
+        (void)name;
+        context.region_colours[label] = names_.colour(label);
+    }
     const fs::path input_json = out_.dir / "checkpoints" / "input.json";
     if (!surface_input_ && fs::exists(input_json)) {
         const std::string text = read_text(input_json);
@@ -1086,6 +1140,7 @@ ReportContext Run::report_context() const {
             stage.wall_s = std::stod(m[1].str());
         if (std::regex_search(part, m, std::regex("\"peak_rss_mb\": ([0-9.eE+-]+)")))
             stage.peak_rss_mb = std::stod(m[1].str());
+        stage.peak_is_process = part.find("\"peak_rss_scope\": \"stage\"") == std::string::npos;
         for (const auto& [key, value] : recipe_.values)
             if (key.rfind(stage.name + ".", 0) == 0) stage.parameters.emplace_back(key, value);
         context.stages.push_back(std::move(stage));
@@ -1166,8 +1221,10 @@ void Run::write_summary(const std::string& status, const std::string& error) {
           << ", \"name\": " << (names_.has(labels[r]) ? json_quote(names_.name(labels[r])) : "null")
           << "}";
     // What this run wrote or found up to date (issue 22): its result files, collections and
-    // log, and the checkpoints of its stages; not files of earlier runs that the folder
-    // still holds (an export of a format no longer asked for, a checkpoint of a later stage).
+    // log, the checkpoints of its stages, the recipe when it lies in the folder (`frontmesh
+    // mesh` writes recipe.yaml there) and this summary.json; not files of earlier runs that
+    // the folder still holds (an export of a format no longer asked for, a checkpoint of a
+    // later stage).
     s << "],\n  \"outputs\": [";
     std::vector<fs::path> files;
     auto add = [&](const fs::path& file) {
@@ -1178,13 +1235,25 @@ void Run::write_summary(const std::string& status, const std::string& error) {
     for (const Kind kind : {Kind::Surface, Kind::Tets}) add(out_.dir / pvd_file_name(kind));
     add(out_.dir / "frontmesh.log");
     for (int i = entry_; i <= last_; ++i) add(out_.checkpoint(stages_[i]));
+    if (!recipe_.path.empty()) {
+        const fs::path recipe = fs::absolute(recipe_.path).lexically_normal();
+        const fs::path inside =
+            recipe.lexically_relative(fs::absolute(out_.dir).lexically_normal());
+        if (!inside.empty() && *inside.begin() != "..") add(recipe);
+    }
+    const fs::path summary = out_.dir / "summary.json";
+    files.erase(std::remove(files.begin(), files.end(), summary), files.end());
+    files.push_back(summary);  // its size is known only once the text is: a marker for now
     std::sort(files.begin(), files.end());
+    constexpr const char* kOwnSize = "@SUMMARY-BYTES@";
     for (std::size_t f = 0; f < files.size(); ++f)
         s << (f ? ",\n    " : "\n    ")
           << "{\"file\": " << json_quote(fs::relative(files[f], out_.dir).string())
-          << ", \"bytes\": " << fs::file_size(files[f]) << "}";
+          << ", \"bytes\": "
+          << (files[f] == summary ? std::string(kOwnSize) : std::to_string(fs::file_size(files[f])))
+          << "}";
     s << "],\n  \"effective_recipe\": " << effective_recipe_json(recipe_) << "\n}\n";
-    io::write_text_atomically((out_.dir / "summary.json").string(), s.str());
+    io::write_text_atomically(summary.string(), with_own_size(s.str(), kOwnSize));
 }
 
 }  // namespace

@@ -32,7 +32,8 @@ struct RunOptions {
 const std::vector<std::string>& stage_names();
 
 /// Runs the recipe. Writes checkpoints/NN-STAGE.vtu (+ .hash, .json, the .hash last),
-/// checkpoints/results.hash (what the result files were made from), run.pvd, summary.json,
+/// checkpoints/results.hash (what the result files were made from), run-surface.pvd and
+/// run-volume.pvd (the surface and the tet checkpoints of this run), summary.json,
 /// frontmesh.log, what stages hand to their diagnostics sink (diagnostics/STAGE-NAME.vtu)
 /// and the final result into recipe.output.dir, all atomically.
 /// Returns the path of the final result. Throws InputError for bad input (exit 2),

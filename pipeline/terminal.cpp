@@ -7,6 +7,8 @@
 #include <cctype>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
+#include <utility>
 
 namespace frontmesh::pipeline {
 
@@ -125,6 +127,73 @@ std::string progress_line(const std::string& stage, double fraction, const std::
     if (!what.empty()) line += "  " + what;
     if (width > 0 && line.size() >= width) line.resize(width - 1);  // the cursor's column
     return line;
+}
+
+double ShownFraction::update(double reported) {
+    if (!std::isfinite(reported)) reported = 0.0;
+    shown_ = std::max(shown_, std::clamp(reported, 0.0, 1.0));
+    return shown_;
+}
+
+ProgressTicker::ProgressTicker(std::function<void()> tick, std::chrono::milliseconds period)
+    : tick_(std::move(tick)), period_(period) {}
+
+ProgressTicker::~ProgressTicker() { stop(); }
+
+void ProgressTicker::start() {
+    if (thread_.joinable()) return;
+    stopping_ = false;
+    thread_ = std::thread([this] {
+        std::unique_lock lock(mutex_);
+        // Ends when stop() sets stopping_ (it then joins): one tick per period until then.
+        while (!stopping_) {
+            if (wake_.wait_for(lock, period_, [this] { return stopping_; })) break;
+            lock.unlock();
+            tick_();
+            lock.lock();
+        }
+    });
+}
+
+void ProgressTicker::stop() {
+    if (!thread_.joinable()) return;
+    {
+        const std::lock_guard lock(mutex_);
+        stopping_ = true;
+    }
+    wake_.notify_all();
+    thread_.join();
+}
+
+std::string results_text(const std::string& result, const std::string& dir, std::size_t width) {
+    const std::filesystem::path d(dir);
+    std::string out = "\nResult:      " + result +
+                      "\nCheckpoints: " + (d / "checkpoints").string() +
+                      "\nSummary:     " + (d / "summary.json").string() +
+                      "\nLog:         " + (d / "frontmesh.log").string() + "\n";
+    const std::string surfaces = (d / "run-surface.pvd").string();
+    const std::string volumes = (d / "run-volume.pvd").string();
+    if (width == 0)  // not a terminal: the lines as they always were
+        return out + "Step through the run in ParaView:  paraview " + surfaces +
+               "\n  (the surface stages; colour by region_in, eta or min_angle), and " + volumes +
+               "\n  (the tet stages, when the run made tets; colour by region or skewness)\n";
+    // One paragraph wrapped at spaces (each of the lines above may be wrapped too).
+    std::string wrapped;
+    std::size_t start = 1;  // after the leading blank line
+    while (start < out.size()) {
+        const std::size_t end = out.find('\n', start);
+        wrapped += wrap_words(out.substr(start, end - start), width, 2) + '\n';
+        start = end + 1;
+    }
+    return "\n" + wrapped +
+           wrap_words("Step through the run in ParaView: paraview " + surfaces +
+                          " (the surface stages; colour by region_in, eta or min_angle), and "
+                          "paraview " +
+                          volumes +
+                          " (the tet stages, when the run made tets; colour by region or "
+                          "skewness)",
+                      width, 2) +
+           '\n';
 }
 
 }  // namespace frontmesh::pipeline

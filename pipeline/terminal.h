@@ -2,8 +2,13 @@
 // What the run shows on a terminal (issue 22, item 10): the progress line with elapsed
 // time and an estimate of the time left, and long lines broken at word boundaries.
 
+#include <chrono>
+#include <condition_variable>
 #include <cstddef>
+#include <functional>
+#include <mutex>
 #include <string>
+#include <thread>
 
 namespace frontmesh::pipeline {
 
@@ -34,5 +39,51 @@ std::string duration_text(double seconds);
 /// done). Cut to `width` columns so that it never wraps (a wrapped line cannot be redrawn).
 std::string progress_line(const std::string& stage, double fraction, const std::string& what,
                           double elapsed_s, std::size_t width);
+
+/// The fraction a progress line shows: the largest reported since reset() (NaN counts as 0,
+/// the result is clamped to [0, 1]), so that the line never goes backwards when a stage
+/// starts another round that counts from 0 again (remesh rounds, tetra's attempts).
+class ShownFraction {
+public:
+    void reset() { shown_ = 0.0; }
+    /// Takes a reported fraction; returns the one to show.
+    double update(double reported);
+
+private:
+    double shown_ = 0.0;
+};
+
+/// Calls `tick` about every `period` from a thread of its own between start() and stop(),
+/// so that a progress line is redrawn (its elapsed time moving) while a long phase reports
+/// nothing. `tick` runs on that thread and takes its own locks; it must not call stop().
+class ProgressTicker {
+public:
+    explicit ProgressTicker(std::function<void()> tick,
+                            std::chrono::milliseconds period = std::chrono::seconds(1));
+    ~ProgressTicker();  ///< stop()
+    ProgressTicker(const ProgressTicker&) = delete;
+    ProgressTicker& operator=(const ProgressTicker&) = delete;
+
+    /// Starts the thread (nothing when it runs already).
+    void start();
+    /// Stops and joins the thread (nothing when it does not run): returns once a tick under
+    /// way has finished; no tick starts after it.
+    void stop();
+    bool is_running() const { return thread_.joinable(); }
+
+private:
+    std::function<void()> tick_;
+    std::chrono::milliseconds period_;
+    std::mutex mutex_;
+    std::condition_variable wake_;
+    bool stopping_ = false;
+    std::thread thread_;
+};
+
+/// What `frontmesh run` prints when it is done: the result, checkpoints, summary and log of
+/// output folder `dir`, and how to step through the run in ParaView (run-surface.pvd,
+/// run-volume.pvd). With `width` > 0 (stdout is a terminal of that many columns) each line
+/// is wrapped at spaces, continuations indented, as the run's other summary lines; 0: as is.
+std::string results_text(const std::string& result, const std::string& dir, std::size_t width);
 
 }  // namespace frontmesh::pipeline

@@ -51,8 +51,9 @@ struct RefineParams {
     int sliver_sweeps = 3;
     /// Largest interior edge, mm (0: no cap). Not a refine.* key: the recipe sets it from
     /// tetra.max_edge_length, so that one key caps the element size of the volume. Interior
-    /// edges longer than it are split at their midpoint after node removal and again after
-    /// the last pass (edges on the input surface stay as they are, and an edge at a surface
+    /// edges longer than it are split at their midpoint after node removal; the smoothing,
+    /// flips and sliver pass after that keep only changes whose edges stay within it, and the
+    /// end checks again (edges on the input surface stay as they are, and an edge at a surface
     /// node may be as long as the longest surface edge there).
     double max_edge_length = 0.0;
 };

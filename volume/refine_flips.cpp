@@ -75,7 +75,7 @@ bool RefineOps::remove_edge(std::int32_t a, std::int32_t b, std::int32_t t, Obje
                 const double bound = std::min(value, old_worst);
                 double c = sub;
                 for (const Tet& nt : pair) {
-                    if (!tet_positive(topo_, nt)) {
+                    if (!tet_positive(topo_, nt) || !is_within_cap(nt)) {
                         c = kInf;
                         break;
                     }
@@ -139,7 +139,7 @@ bool RefineOps::flip_2_3(std::int32_t t, int i, Objective objective) {
         if (k == i) continue;
         Tet nt = tt;
         nt[static_cast<std::size_t>(k)] = b;  // B takes the place of a node of F
-        if (!tet_positive(topo_, nt)) return false;
+        if (!tet_positive(topo_, nt) || !is_within_cap(nt)) return false;
         worst = std::max(worst, tet_cost(topo_, nt, objective));
         if (worst >= old_worst) return false;
         candidate_.push_back(nt);

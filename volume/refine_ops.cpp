@@ -283,7 +283,7 @@ bool RefineOps::remove_node(std::int32_t v, int max_tets, Objective objective, b
             Tet nt = topo_.tet(t);
             if (local_index(nt, w) >= 0) continue;
             nt[static_cast<std::size_t>(local_index(nt, v))] = w;
-            if (!tet_positive(topo_, nt)) {
+            if (!tet_positive(topo_, nt) || !is_within_cap(nt)) {
                 valid = false;
                 break;
             }

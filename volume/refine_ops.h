@@ -160,6 +160,18 @@ public:
     std::size_t split_long_edges(double max_length);
     static constexpr int kMaxSplitRounds = 32;
 
+    /// tetra.max_edge_length: from this call on, every change (flip, node removal, move,
+    /// smoothing, new node) is kept only when the edges it makes or moves are within their
+    /// cap (split_long_edges' cap for `max_length` mm), so the quality passes after the splits
+    /// cannot make long edges again. 0 (the default) means no cap and changes nothing.
+    /// O(input triangles).
+    void set_edge_cap(double max_length);
+    /// Whether edge (a, b), with its nodes at pa and pb, is within the cap (always true without
+    /// one); a or b may be -1 for a node not added yet (interior: the cap is max_length).
+    bool is_within_cap(std::int32_t a, const double* pa, std::int32_t b, const double* pb) const;
+    /// Whether every edge of tet t (node ids of the topology) is within the cap.
+    bool is_within_cap(const Tet& t) const;
+
     /// 2 -> 3: face i of tet t and the tet across it become three tets around the new edge AB.
     bool flip_2_3(std::int32_t t, int i, Objective objective);
 
@@ -233,6 +245,15 @@ private:
     std::vector<std::int32_t> star_offset_, star_tets_;
     std::vector<std::uint8_t> on_wall_;
     std::vector<std::uint8_t> node_settled_;  ///< per node: smoothing tried, no move kept
+    /// set_edge_cap: the cap squared (0: none) and, per input-surface node, its longest input
+    /// edge squared. 8 MB per million surface nodes.
+    double cap2_ = 0.0;
+    std::vector<double> surface_edge2_;
+    /// Fills surface_edge2_ (once).
+    void index_surface_edges();
+    /// Whether edge (a, b) at pa, pb is within the local cap for a cap of sqrt(max2) mm.
+    bool is_within(std::int32_t a, const double* pa, std::int32_t b, const double* pb,
+                   double max2) const;
 };
 
 }  // namespace frontmesh::volume

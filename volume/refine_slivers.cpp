@@ -156,15 +156,22 @@ struct Score {
 /// comes first, up to kRescueTargetDeg, and kRescueExtraCaps more tets above 0.8 are allowed.
 class NodePlacement {
 public:
-    NodePlacement(const TetTopology& topo, const std::vector<Face>& boundary, Objective objective,
-                  bool rescue, const Score& old)
-        : topo_(topo), boundary_(boundary), objective_(objective), rescue_(rescue), old_(old) {}
+    NodePlacement(const TetTopology& topo, const RefineOps& ops, const std::vector<Face>& boundary,
+                  Objective objective, bool rescue, const Score& old)
+        : topo_(topo),
+          ops_(ops),
+          boundary_(boundary),
+          objective_(objective),
+          rescue_(rescue),
+          old_(old) {}
 
     Score score(const V3& p) const {
         Score s;
         for (const auto& f : boundary_) {
             const double *a = topo_.xyz(f[0]), *b = topo_.xyz(f[1]), *c = topo_.xyz(f[2]);
             if (!positive_tet(a, b, c, p.data())) return s;
+            for (const std::int32_t w : f)  // tetra.max_edge_length: the new node's edges
+                if (!ops_.is_within_cap(-1, p.data(), w, topo_.xyz(w))) return s;
             const TetShape shape = tet_shape(a, b, c, p.data(), true);
             s.over += shape.skewness > 0.8 ? 1 : 0;
             if (s.over > old_.over + (rescue_ ? kRescueExtraCaps : 0))
@@ -193,6 +200,7 @@ public:
 
 private:
     const TetTopology& topo_;
+    const RefineOps& ops_;
     const std::vector<Face>& boundary_;
     const Objective objective_;
     const bool rescue_;
@@ -355,7 +363,7 @@ bool RefineOps::insert_node(std::int32_t t, Objective objective) {
         if (!is_sphere(boundary)) continue;
         Score old = current_score(topo_, cavity_);
         old.max_cost = max_cost(cavity_, objective);
-        const NodePlacement placement(topo_, boundary, objective, rescue, old);
+        const NodePlacement placement(topo_, *this, boundary, objective, rescue, old);
         const auto [h, centroid_b] = node_candidates(topo_, t, boundary, rescue, candidates);
         const auto [best_p, best] = best_position(placement, candidates, centroid_b, h, t);
         // Kept when valid, with no more tets above skewness 0.8, and either the smallest

@@ -103,7 +103,7 @@ Eigen::Vector3d RefineOps::angle_based_target(std::int32_t v) {
 }
 
 /// Largest cost and the cost sum of the star of v with v at p; +inf when a tet would not be
-/// strictly positive (exact).
+/// strictly positive (exact) or an edge at v would exceed the tetra.max_edge_length cap.
 std::pair<double, double> RefineOps::star_cost(std::int32_t v, const V3& p, Objective objective,
                                                double bound) {
     // v's coordinates replaced by p in each tet, without moving v: nothing to restore, and the
@@ -121,7 +121,12 @@ std::pair<double, double> RefineOps::star_cost(std::int32_t v, const V3& p, Obje
         const TetShape s = tet_shape(x[0], x[1], x[2], x[3], objective == Objective::Combined);
         double c = s.skewness;
         if (objective == Objective::Combined) c = combined_cost(s, topo_.has_poor_face(tt));
-        if (c > bound || !positive_tet(x[0], x[1], x[2], x[3])) {
+        bool within_cap = true;  // tetra.max_edge_length: v's edges at p
+        for (int k = 0; k < 4 && within_cap; ++k) {
+            const std::int32_t w = tt[static_cast<std::size_t>(k)];
+            if (w != v) within_cap = is_within_cap(v, p.data(), w, topo_.xyz(w));
+        }
+        if (c > bound || !within_cap || !positive_tet(x[0], x[1], x[2], x[3])) {
             worst = kInf;
             break;
         }

@@ -45,31 +45,63 @@ bool RefineOps::split_edge(std::int32_t a, std::int32_t b, std::int32_t t) {
     return true;
 }
 
-std::size_t RefineOps::split_long_edges(double max_length) {
+void RefineOps::set_edge_cap(double max_length) {
+    cap2_ = max_length > 0.0 ? max_length * max_length : 0.0;
+    if (cap2_ > 0.0) index_surface_edges();
+}
+
+void RefineOps::index_surface_edges() {
     // The cap of an edge: max_length, or the longest surface edge at either of its nodes
     // when that is longer. The surface is kept, so a tet on a surface triangle of edges
     // longer than the cap cannot have all its edges within the cap: splitting its other
     // edges would only cascade into slivers at the triangle. With the local cap a point
     // within reach of a triangle's corners (its circumcentre lifted off it) always fits.
-    const core::TetMesh& mesh = topo_.mesh();
-    std::vector<double> surface_edge2(static_cast<std::size_t>(topo_.node_capacity()), 0.0);
-    for (const auto& f : mesh.faces)
+    if (!surface_edge2_.empty() || topo_.mesh().surface_vertices == 0) return;
+    surface_edge2_.assign(static_cast<std::size_t>(topo_.mesh().surface_vertices), 0.0);
+    for (const auto& f : topo_.mesh().faces)
         for (int k = 0; k < 3; ++k) {
             const std::int32_t a = f[static_cast<std::size_t>(k)],
                                b = f[static_cast<std::size_t>((k + 1) % 3)];
             const double l2 = (topo_.point(a) - topo_.point(b)).squaredNorm();
             for (const std::int32_t v : {a, b})
-                surface_edge2[static_cast<std::size_t>(v)] =
-                    std::max(surface_edge2[static_cast<std::size_t>(v)], l2);
+                if (static_cast<std::size_t>(v) < surface_edge2_.size())
+                    surface_edge2_[static_cast<std::size_t>(v)] =
+                        std::max(surface_edge2_[static_cast<std::size_t>(v)], l2);
         }
+}
+
+bool RefineOps::is_within(std::int32_t a, const double* pa, std::int32_t b, const double* pb,
+                          double max2) const {
+    const auto at = [&](std::int32_t v) {
+        return v >= 0 && static_cast<std::size_t>(v) < surface_edge2_.size()
+                   ? surface_edge2_[static_cast<std::size_t>(v)]
+                   : 0.0;  // an interior node, or one added by refine
+    };
+    const double dx = pa[0] - pb[0], dy = pa[1] - pb[1], dz = pa[2] - pb[2];
+    return dx * dx + dy * dy + dz * dz <= std::max(max2, std::max(at(a), at(b)));
+}
+
+bool RefineOps::is_within_cap(std::int32_t a, const double* pa, std::int32_t b,
+                              const double* pb) const {
+    return cap2_ == 0.0 || is_within(a, pa, b, pb, cap2_);
+}
+
+bool RefineOps::is_within_cap(const Tet& t) const {
+    if (cap2_ == 0.0) return true;
+    for (int i = 0; i < 4; ++i)
+        for (int j = i + 1; j < 4; ++j) {
+            const std::int32_t a = t[static_cast<std::size_t>(i)],
+                               b = t[static_cast<std::size_t>(j)];
+            if (!is_within(a, topo_.xyz(a), b, topo_.xyz(b), cap2_)) return false;
+        }
+    return true;
+}
+
+std::size_t RefineOps::split_long_edges(double max_length) {
+    index_surface_edges();
     const double max2 = max_length * max_length;
-    auto cap2 = [&](std::int32_t a, std::int32_t b) {
-        const auto at = [&](std::int32_t v) {
-            return static_cast<std::size_t>(v) < surface_edge2.size()
-                       ? surface_edge2[static_cast<std::size_t>(v)]
-                       : 0.0;  // a node added by a split: interior
-        };
-        return std::max(max2, std::max(at(a), at(b)));
+    auto is_long = [&](std::int32_t a, std::int32_t b) {
+        return !is_within(a, topo_.xyz(a), b, topo_.xyz(b), max2);
     };
     // An edge is listed with one tet holding it: (-length^2, a, b, t) so that sorting puts
     // the longest first, ties by node ids.
@@ -82,8 +114,8 @@ std::size_t RefineOps::split_long_edges(double max_length) {
             for (int i = 0; i < 4; ++i)
                 for (int j = i + 1; j < 4; ++j) {
                     const std::int32_t a = std::min(q[i], q[j]), b = std::max(q[i], q[j]);
-                    const double l2 = (topo_.point(a) - topo_.point(b)).squaredNorm();
-                    if (l2 > cap2(a, b)) edges.emplace_back(-l2, a, b, t);
+                    if (!is_long(a, b)) continue;
+                    edges.emplace_back(-(topo_.point(a) - topo_.point(b)).squaredNorm(), a, b, t);
                 }
         }
         std::sort(edges.begin(), edges.end());

@@ -12,6 +12,8 @@ the sections frontmesh writes (FEBio 4 User's Manual, "Free format input"):
     unique and its nodes existing; every Surface face (tri3, or tri6 of tet10 parts:
     corners, then edges 1-2, 2-3, 3-1) references existing nodes and is a face of an
     element, oriented out of it, with that element's mid nodes on its edges; NodeSet / ElementSet members exist (lists and a:b ranges);
+    every PartList (FEBio 4.3+) is named, unique among part lists and lists existing
+    Elements parts, comma-separated without spaces (FEBio does not trim them);
     names of parts, surfaces, sets unique; every SurfacePair names two existing surfaces
     of the same triangles: on the same nodes, or, for an interface split by
     output.split_interfaces (sides on their own nodes), at the same coordinates;
@@ -170,6 +172,16 @@ def main(path):
             if not listed or not set(listed) <= members:
                 fail(f"{tag} {name}: empty or lists a missing {what}")
             print("count", tag, name, len(listed))
+    part_lists = set()
+    for pl in mesh.findall("PartList"):
+        name = pl.get("name")
+        if not name or name in part_lists:
+            fail(f"PartList {name}: no name, or the name is taken")
+        part_lists.add(name)
+        listed = (pl.text or "").split(",")
+        if not pl.text or any(p not in parts for p in listed):
+            fail(f"PartList {name}: empty or names a missing part ({pl.text!r})")
+        print("count PartList", name, len(listed))
     pairs = split = 0
     for p in mesh.findall("SurfacePair"):
         primary, secondary = p.findtext("primary"), p.findtext("secondary")

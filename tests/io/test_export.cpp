@@ -718,6 +718,8 @@ TEST_CASE("FEBio export: a complete FEBio 4 model by the structural check", "[io
     CHECK_THAT(r.out, Catch::Contains("count elements " + std::to_string(mesh.tet_count()) + "\n"));
     CHECK_THAT(r.out, Catch::Contains("count ElementSet all_elements " +
                                       std::to_string(mesh.tet_count()) + "\n"));
+    // A PartList of the three parts (FEBio 4.3+), names comma-separated without spaces.
+    CHECK_THAT(r.out, Catch::Contains("count PartList all_parts 3\n"));
     // A SurfacePair per interface (1-2, 1-7, 2-7), naming its two sides.
     CHECK_THAT(r.out, Catch::Contains("count pairs 3\n"));
     const std::string text = slurp(path);
@@ -732,7 +734,8 @@ TEST_CASE("FEBio export: a complete FEBio 4 model by the structural check", "[io
     const std::vector<std::pair<std::string, std::string>> broken = {
         {"<SolidDomain name=\"CSF\" mat=\"CSF\"/>", ""},
         {"<secondary>interface_CSF_Grey_matter</secondary>", "<secondary>nothing</secondary>"},
-        {"<tri3 id=\"1\">", "<tri3 id=\"1\">99999,"}};
+        {"<tri3 id=\"1\">", "<tri3 id=\"1\">99999,"},
+        {"<PartList name=\"all_parts\">", "<PartList name=\"all_parts\">nothing,"}};
     for (const auto& [from, to] : broken) {
         INFO(from);
         std::string bad = text;

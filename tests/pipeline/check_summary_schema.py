@@ -1,5 +1,6 @@
 #!/usr/bin/python3
-"""Validates summary.json files against docs/summary.schema.json (issue 22, item 9).
+"""Validates summary.json files against docs/summary.schema.json, or cohort-summary.json
+files against docs/cohort-summary.schema.json (issue 22, item 9).
 
 Usage: check_summary_schema.py SCHEMA SUMMARY.json [SUMMARY.json ...]
 Exit 0 when every file is valid, 1 with one line per error otherwise, 3 when the jsonschema

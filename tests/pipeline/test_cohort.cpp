@@ -1,5 +1,9 @@
+#include <sys/wait.h>
+
+#include <cstdlib>
 #include <filesystem>
 #include <map>
+#include <regex>
 
 #include <catch2/catch.hpp>
 
@@ -50,6 +54,19 @@ std::vector<std::map<std::string, std::string>> summary_rows(const fs::path& csv
         rows.push_back(row);
     }
     return rows;
+}
+
+// tests/pipeline/check_summary_schema.py with docs/SCHEMA: exit status (3: no jsonschema)
+// and its output.
+std::pair<int, std::string> validate_with(const fs::path& json, const std::string& schema,
+                                          const fs::path& dir) {
+    const std::string source = FRONTMESH_SOURCE_DIR;
+    const fs::path report = dir / "schema.txt";
+    const std::string cmd = "/usr/bin/python3 '" + source +
+                            "/tests/pipeline/check_summary_schema.py' '" + source + "/docs/" +
+                            schema + "' '" + json.string() + "' > '" + report.string() + "' 2>&1";
+    const int status = std::system(cmd.c_str());
+    return {WEXITSTATUS(status), slurp(report)};
 }
 
 std::map<fs::path, fs::file_time_type> checkpoint_times(const fs::path& root) {
@@ -161,10 +178,42 @@ TEST_CASE("cohort: a failed subject is recorded, the others finish, a re-run doe
     CHECK_THAT(rows[2]["error"], Catch::Contains("manifest.csv:4: subject 'sub-03'"));
     // Region names (labels without a table) and the result files of each subject.
     CHECK(rows[1]["region_names"] == "1;2");
-    CHECK_THAT(rows[1]["outputs"],
-               Catch::Contains("surface.vtu") && !Catch::Contains("summary.json"));
+    CHECK_THAT(rows[1]["outputs"], Catch::Contains("surface.vtu") &&
+                                       Catch::Contains("summary.json") &&
+                                       !Catch::Contains("checkpoints/"));
     CHECK(rows[2]["faces"].empty());
+    // Per subject (issue 22): its image, when its run started and finished, the image's
+    // dims and spacing as read, and where its summary.json and recipe are.
+    const std::regex iso("[0-9]{4}-[0-9]{2}-[0-9]{2}T[0-9:]{8}[+-][0-9]{2}:[0-9]{2}");
+    for (int i : {0, 1}) {
+        CHECK(std::regex_match(rows[i]["started"], iso));
+        CHECK(std::regex_match(rows[i]["finished"], iso));
+        CHECK(rows[i]["started"] <= rows[i]["finished"]);
+        CHECK(rows[i]["image_spacing_mm"] == "1;1;1");
+        CHECK(rows[i]["summary"] == (out / rows[i]["id"] / "summary.json").string());
+        CHECK(rows[i]["recipe"] == (fs::path(dir) / "recipe.yaml").string());
+    }
+    CHECK(rows[0]["image"] == (fs::path(dir) / "small.mha").string());
+    CHECK(rows[0]["image_dims"] == "20;20;20");
+    CHECK(rows[2]["image"] == (fs::path(dir) / "images/missing.mha").string());
+    CHECK(rows[2]["started"].empty());  // its run wrote no summary.json
+    CHECK(rows[2]["summary"].empty());
+    CHECK(rows[2]["image_dims"].empty());
     const std::string json = slurp(out / "cohort-summary.json");
+    CHECK_THAT(json,
+               Catch::Contains("\"image_dims\": [20, 20, 20], \"image_spacing_mm\": [1, 1, 1]"));
+    const auto [schema_status, schema_text] =
+        validate_with(out / "cohort-summary.json", "cohort-summary.schema.json", dir);
+    INFO(schema_text);
+    if (schema_status != 3) CHECK(schema_status == 0);
+    // The schema is not empty: a subject without its started time is refused.
+    std::string broken = json;
+    broken.replace(broken.find("\"started\""), 9, "\"startet\"");
+    write_file(dir + "/broken.json", broken);
+    if (schema_status != 3)
+        CHECK(
+            validate_with(fs::path(dir) / "broken.json", "cohort-summary.schema.json", dir).first ==
+            1);
     CHECK_THAT(json,
                Catch::Contains("\"counts\": {\"ok\": 2, \"skipped\": 0, \"failed\": 1}") &&
                    Catch::Contains("\"id\": \"sub-03\", \"status\": \"failed\", \"exit_code\": 2"));
@@ -254,8 +303,9 @@ TEST_CASE("cohort: -j 2 gives the rows of -j 1", "[pipeline]") {
     REQUIRE(one.size() == 3);
     for (auto* rows : {&one, &two})
         for (auto& row : *rows) {
-            row.erase("wall_s");
-            row.erase("total_wall_s");
+            // Times of the run and the folder it wrote into differ by nature.
+            for (const char* column : {"wall_s", "total_wall_s", "started", "finished", "summary"})
+                row.erase(column);
         }
     CHECK(one == two);
     // The subjects' checkpoints are byte for byte the same too.
@@ -371,6 +421,12 @@ TEST_CASE("cohort Snakefile runs two subjects locally with snakemake -j 2", "[pi
     CHECK(rows[1].at("id") == "large");
     CHECK(rows[1].at("status") == "ok");
     CHECK(std::stod(rows[1].at("faces")) > std::stod(rows[0].at("faces")));
+    // The same columns as frontmesh cohort's (issue 22).
+    CHECK(rows[0].at("image_spacing_mm") == "1;1;1");
+    CHECK(!rows[0].at("started").empty());
+    CHECK(rows[0].at("summary") == dir + "/smk-out/small/summary.json");
+    CHECK(rows[0].at("recipe") == dir + "/recipe.yaml");
+    CHECK_THAT(rows[0].at("outputs"), Catch::Contains("surface.vtu"));
     CHECK_FALSE(fs::exists(dir + "/smk-out/small/checkpoints/04-tetra.vtu"));  // until: repair
 
     SECTION("the SLURM profile submits each subject through sbatch with its resources") {

@@ -2,6 +2,7 @@
 // the recipe it used into the output folder, and that recipe re-runs to the same mesh.
 
 #include <filesystem>
+#include <string>
 
 #include <catch2/catch.hpp>
 
@@ -37,6 +38,14 @@ TEST_CASE("frontmesh mesh: image to mesh with a written recipe that re-runs the 
         volume::check_tet_mesh(io::read_tet_mesh((first / "mesh.vtu").string()));
     CHECK(check.valid());
     CHECK(check.region_volume.size() == 3);
+    // summary.json's outputs list the recipe written into the folder and summary.json itself,
+    // with its own size in bytes.
+    const std::string summary = slurp(first / "summary.json");
+    CHECK_THAT(summary,
+               Catch::Contains("{\"file\": \"recipe.yaml\", \"bytes\": " +
+                               std::to_string(fs::file_size(first / "recipe.yaml")) + "}") &&
+                   Catch::Contains("{\"file\": \"summary.json\", \"bytes\": " +
+                                   std::to_string(summary.size()) + "}"));
 
     // The written recipe, run from another folder into another output, makes the same mesh.
     const std::string other = fixtures::temp_dir("mesh_command_rerun");
@@ -48,6 +57,11 @@ TEST_CASE("frontmesh mesh: image to mesh with a written recipe that re-runs the 
     const fs::path second = fs::path(other) / "second";
     CHECK(slurp(second / "mesh.vtu") == slurp(first / "mesh.vtu"));
     CHECK(slurp(second / "mesh.inp") == slurp(first / "mesh.inp"));
+    // Its recipe lies outside that output folder: not one of its outputs.
+    const std::string second_summary = slurp(second / "summary.json");
+    CHECK_THAT(second_summary, !Catch::Contains("\"recipe.yaml\"") &&
+                                   Catch::Contains("{\"file\": \"summary.json\", \"bytes\": " +
+                                                   std::to_string(second_summary.size()) + "}"));
 
     // Sequential checks, not SECTIONs: each SECTION would mesh the phantom again.
     {

@@ -1,5 +1,6 @@
 // The quality report: histograms that count every element, well-formed SVG and HTML.
 
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <numeric>
@@ -10,6 +11,7 @@
 
 #include <catch2/catch.hpp>
 
+#include "io/label_table.h"
 #include "pipeline/core/quality.h"
 #include "pipeline/quality_report.h"
 #include "tests/fixtures/phantoms.h"
@@ -163,8 +165,8 @@ TEST_CASE("report.html: names, per-region volumes and sizes, stages, a cross-sec
     context.region_names = {{1, "Left"}, {2, "Right"}};
     const auto h = pipeline::quality_histograms(mesh);
     context.voxel_volume_mm3 = {{1, h.regions.at(1).volume_mm3 * 1.1}, {2, 0.0}};
-    context.stages = {{"tetra", false, 1.5, 100.0, {{"tetra.stretching", "1.15"}}},
-                      {"refine", true, 2.5, 120.0, {{"refine.passes", "3"}}}};
+    context.stages = {{"tetra", false, 1.5, 100.0, {{"tetra.stretching", "1.15"}}, false},
+                      {"refine", true, 2.5, 120.0, {{"refine.passes", "3"}}, true}};
     const std::string dir = fixtures::temp_dir("quality_report_context");
     pipeline::write_quality_report(dir, mesh, nullptr, context, nullptr);
     const std::string html = frontmesh::testing::slurp(dir + "/report.html");
@@ -173,6 +175,7 @@ TEST_CASE("report.html: names, per-region volumes and sizes, stages, a cross-sec
                          Catch::Contains("-9.09%") &&  // 1 / 1.1 - 1
                          Catch::Contains("stretching&nbsp;=&nbsp;1.15") &&
                          Catch::Contains("reused") && Catch::Contains("Cross-section") &&
+                         Catch::Contains(">120 (process)<") && Catch::Contains(">100<") &&
                          Catch::Contains("edge mean"));
     // Edge lengths of the unit cube's tets: 1, sqrt 2 and sqrt 3.
     // The smallest-angle chart marks only the small angles (below 20 degrees).
@@ -200,4 +203,54 @@ TEST_CASE("report.html renders in a real browser", "[pipeline][report]") {
     const std::string bytes = frontmesh::testing::slurp(png);
     CHECK(bytes.compare(1, 3, "PNG") == 0);
     CHECK(bytes.size() > 20000);
+}
+
+namespace {
+
+/// The fill of the legend swatch of `label` in a cross-section SVG ("" when there is none).
+std::string legend_colour(const std::string& svg, int label) {
+    std::smatch m;
+    const std::regex swatch("fill=\"([^\"]*)\"/><text x=\"[^\"]*\" y=\"[^\"]*\">" +
+                            std::to_string(label) + "[ (]");
+    return std::regex_search(svg, m, swatch) ? m[1].str() : std::string();
+}
+
+std::string hex(const io::Rgb& c) {
+    char buffer[8];
+    std::snprintf(buffer, sizeof buffer, "#%02x%02x%02x", c[0], c[1], c[2]);
+    return buffer;
+}
+
+}  // namespace
+
+TEST_CASE("report colours are mesh.vtu's label colours, the same in every run",
+          "[pipeline][report]") {
+    // Regions 1 and 2; then region 1 relabelled 9, so that label 2 comes first in the run.
+    const core::TetMesh mesh = fixtures::cube_tet_mesh(3, 1.0, true);
+    core::TetMesh other = mesh;
+    for (core::Label& r : other.region)
+        if (r == 1) r = 9;
+    const std::string a = pipeline::svg_cross_section(mesh);
+    const std::string b = pipeline::svg_cross_section(other);
+    CHECK(legend_colour(a, 2) == hex(io::default_colour(2)));
+    CHECK(legend_colour(b, 2) == hex(io::default_colour(2)));
+    CHECK(legend_colour(a, 1) == hex(io::default_colour(1)));
+    CHECK(legend_colour(b, 9) == hex(io::default_colour(9)));
+    // The cut polygons of region 1 in its colour.
+    CHECK_THAT(a, Catch::Contains("data-label=\"1\" fill=\"" + hex(io::default_colour(1)) + "\""));
+
+    // A label table's colour wins, in the picture and in the region table's swatch.
+    io::LabelTable table;
+    table.set(2, "Right");
+    table.set_colour(2, {10, 20, 30});
+    pipeline::ReportContext context;
+    context.region_names = table.names();
+    context.region_colours = {{2, table.colour(2)}};
+    const std::string dir = fixtures::temp_dir("quality_report_colours");
+    pipeline::write_quality_report(dir, mesh, nullptr, context, nullptr);
+    const std::string html = frontmesh::testing::slurp(dir + "/report.html");
+    CHECK_THAT(html,
+               Catch::Contains("background:#0a141e\"></span>2<") &&
+                   Catch::Contains("background:" + hex(io::default_colour(1)) + "\"></span>1<"));
+    CHECK(legend_colour(frontmesh::testing::slurp(dir + "/cross_section.svg"), 2) == "#0a141e");
 }

@@ -1,8 +1,13 @@
 // What a run shows on a terminal (issue 22, item 10): progress with elapsed time and time
 // left, long lines broken at word boundaries.
 
+#include <chrono>
+#include <cmath>
+#include <condition_variable>
+#include <mutex>
 #include <sstream>
 #include <string>
+#include <thread>
 
 #include <catch2/catch.hpp>
 
@@ -68,4 +73,82 @@ TEST_CASE("lines that only count zeros are recognised", "[pipeline][terminal]") 
     CHECK_FALSE(lists_only_zeros("[1/5] extract"));
     CHECK_FALSE(lists_only_zeros("extract: 3D surface nets, 0.5 relaxation"));
     CHECK_FALSE(lists_only_zeros("remesh: 0 faces, 10 vertices"));
+}
+
+TEST_CASE("the closing ParaView hint is wrapped on a terminal, as is in a pipe",
+          "[pipeline][terminal]") {
+    const std::string dir = "/data/studies/cohort-2026/subject-0042/frontmesh-output";
+    const std::string result = dir + "/mesh.vtu";
+    // In a pipe (width 0): the lines as before.
+    const std::string plain = results_text(result, dir, 0);
+    CHECK_THAT(plain, Catch::Contains("\nResult:      " + result + "\n") &&
+                          Catch::Contains("Step through the run in ParaView:  paraview " + dir +
+                                          "/run-surface.pvd\n  (the surface stages;"));
+    // On a terminal of 60 columns: no line longer, no word cut, both collections named.
+    const std::string wrapped = results_text(result, dir, 60);
+    std::istringstream in(wrapped);
+    for (std::string line; std::getline(in, line);) {
+        INFO(line);
+        const bool one_long_word = line.find(' ', line.find_first_not_of(' ')) == std::string::npos;
+        CHECK((line.size() <= 60 || one_long_word));
+    }
+    CHECK_THAT(wrapped, Catch::Contains(dir + "/run-surface.pvd") &&
+                            Catch::Contains(dir + "/run-volume.pvd"));
+    CHECK(wrapped.find("\n  ") != std::string::npos);  // continuations indented
+    CHECK(longest_line(plain) > 60);                   // there was something to wrap
+}
+
+TEST_CASE("the shown fraction never goes back within a stage", "[pipeline][terminal]") {
+    ShownFraction shown;
+    CHECK(shown.update(0.4) == 0.4);
+    CHECK(shown.update(0.1) == 0.4);  // a second remesh round counting from 0 again
+    CHECK(shown.update(0.7) == 0.7);
+    CHECK(shown.update(std::nan("")) == 0.7);
+    CHECK(shown.update(3.0) == 1.0);
+    shown.reset();  // the next stage
+    CHECK(shown.update(0.1) == Approx(0.1));
+}
+
+TEST_CASE("the progress ticker redraws between events until it is stopped",
+          "[pipeline][terminal]") {
+    // No timing asserted: the test waits (up to a generous bound, against a hang) until the
+    // ticker has ticked twice on its own, then checks that stop() ends the ticks.
+    std::mutex mutex;
+    std::condition_variable ticked;
+    int ticks = 0;
+    ProgressTicker ticker(
+        [&] {
+            const std::lock_guard lock(mutex);
+            ++ticks;
+            ticked.notify_all();
+        },
+        std::chrono::milliseconds(1));
+    CHECK_FALSE(ticker.is_running());
+    ticker.start();
+    ticker.start();  // a second start changes nothing
+    CHECK(ticker.is_running());
+    {
+        std::unique_lock lock(mutex);
+        CHECK(ticked.wait_for(lock, std::chrono::seconds(60), [&] { return ticks >= 2; }));
+    }
+    ticker.stop();
+    CHECK_FALSE(ticker.is_running());
+    int after_stop = 0;
+    {
+        const std::lock_guard lock(mutex);
+        after_stop = ticks;
+    }
+    std::this_thread::yield();
+    {
+        const std::lock_guard lock(mutex);
+        CHECK(ticks == after_stop);  // joined: no tick after stop() returned
+    }
+    ticker.stop();  // harmless
+    // It can run again (the next stage).
+    ticker.start();
+    {
+        std::unique_lock lock(mutex);
+        CHECK(ticked.wait_for(lock, std::chrono::seconds(60),
+                              [&] { return ticks >= after_stop + 1; }));
+    }
 }
