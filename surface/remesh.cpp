@@ -440,18 +440,13 @@ SurfaceConstraints surface_constraints(const core::SurfaceNetwork& bg, const Fea
 
 // §2: "an angle-based smoothing method is applied to the resulting mesh to ensure quality",
 // with projection onto the background, curve vertices on their curves, and edge flips.
-SmoothingParams smoothing_params(const RemeshParams& params) {
-    SmoothingParams smp;
-    smp.iterations = params.smoothing_iterations;
-    smp.flip_max_dihedral_deg = params.flip_max_dihedral_deg;
-    return smp;
-}
-
 void smooth(core::SurfaceNetwork& out, const std::vector<const BackgroundPatch*>& pointers,
             SurfaceConstraints& constraints, const RemeshParams& params,
             std::map<std::string, double>& round_sums) {
     if (params.smoothing_iterations <= 0) return;
-    const SmoothingParams smp = smoothing_params(params);
+    SmoothingParams smp;
+    smp.iterations = params.smoothing_iterations;
+    smp.flip_max_dihedral_deg = params.flip_max_dihedral_deg;
     core::StageContext sub;
     smooth_surface(out, pointers, constraints, smp, sub);
     for (const auto& [name, value] : sub.counters()) round_sums[name] += value;
@@ -612,12 +607,9 @@ void cut_stalled_patches(const core::SurfaceNetwork& bg, const RemeshParams& par
 // remesh.preserve_volume: every region back to the background's enclosed volume, offsets of
 // at most h / 10 (the sagitta of a chord of length h on a radius of 1.25 h; thinner or more
 // curved parts keep part of their loss rather than move further off the background).
-// Then the smoothing's opening passes once more (open_thin_wedges): the offsets can close
-// a region wedge or spike tip they opened (AICHA: 24 forced tets under 10 degrees again).
 void preserve_volumes(const core::SurfaceNetwork& bg, const RemeshParams& params, double h,
-                      const PatchCache& cache, RoundResult& last, core::StageContext& ctx) {
+                      core::SurfaceNetwork& out, core::StageContext& ctx) {
     if (!params.preserve_volume) return;
-    core::SurfaceNetwork& out = last.out;
     std::map<core::Label, double> target;
     for (const core::Label l : core::region_labels(bg)) target[l] = core::enclosed_volume(bg, l);
     const VolumeCorrection c = correct_region_volumes(out, target, 0.1 * h, 3);
@@ -625,10 +617,6 @@ void preserve_volumes(const core::SurfaceNetwork& bg, const RemeshParams& params
     ctx.count("remesh.volume_error_percent", 100.0 * c.worst_after);
     ctx.count("remesh.volume_error_region", static_cast<double>(c.worst_region));
     ctx.count("remesh.vertices_put_back_for_volume", static_cast<double>(c.vertices_put_back));
-    std::vector<const BackgroundPatch*> pointers;
-    for (const auto& p : cache.patches) pointers.push_back(&p);
-    ctx.add("remesh.wedge_openings",
-            double(open_thin_wedges(out, pointers, last.constraints, smoothing_params(params))));
 }
 
 std::optional<RemeshResult> background_result(const core::SurfaceNetwork& bg, const SizeField& size,
@@ -687,7 +675,7 @@ RemeshResult remesh(const core::SurfaceNetwork& bg, const RemeshParams& params,
             cut_stalled_patches(bg, params, size, sp, patches, ctx);
         if (done) {
             for (const auto& [name, value] : last.sums) ctx.add(name, value);
-            preserve_volumes(bg, params, sp.edge_length, *patches.cache, last, ctx);
+            preserve_volumes(bg, params, sp.edge_length, last.out, ctx);
             clock.lap("checks");
             return finished_result(size, std::move(last.out), last.constraints.vertex_face,
                                    last.curve_points, ctx);
@@ -705,7 +693,7 @@ RemeshResult remesh(const core::SurfaceNetwork& bg, const RemeshParams& params,
         throw;
     }
     for (const auto& [name, value] : last.sums) ctx.add(name, value);
-    preserve_volumes(bg, params, sp.edge_length, *patches.cache, last, ctx);
+    preserve_volumes(bg, params, sp.edge_length, last.out, ctx);
     clock.lap("checks");
     return finished_result(size, std::move(last.out), last.constraints.vertex_face,
                            last.curve_points, ctx);

@@ -57,17 +57,18 @@ double region_wedge_deg(const core::SurfaceNetwork& s, core::Label region, std::
 
 // Smallest wedge of any region with exactly two of `faces` (the faces on edge (a, b)); with
 // `folds`, a wedge w counts as min(w, 360 - w) (thin_region_wedges: faces on each other).
-// With `deficit`, also adds up target - w over the wedges w under `target`.
+// With `deficit`, also adds up target - w over the wedges w under `target`; with `outside`,
+// also takes the outside's (label 0) smallest wedge there, kept apart (no tet lies in it).
 template <class Faces>
 double smallest_edge_wedge(const core::SurfaceNetwork& s, std::int32_t a, std::int32_t b,
                            const Faces& faces, bool folds = false, double* deficit = nullptr,
-                           double target = 0.0) {
+                           double target = 0.0, double* outside = nullptr) {
     double smallest = 360.0;
     const std::size_t n = faces.size();
     for (std::size_t i = 0; i < n; ++i)
         for (const core::Label r :
              {s.region_in[std::size_t(faces[i])], s.region_out[std::size_t(faces[i])]}) {
-            if (r == 0) continue;
+            if (r == 0 && !outside) continue;
             std::int32_t other = -1;
             int uses = 0;
             bool seen_before = false;
@@ -84,6 +85,10 @@ double smallest_edge_wedge(const core::SurfaceNetwork& s, std::int32_t a, std::i
             // (a region closed on itself, torture seed 67) w comes out as 0 or 360 by
             // rounding, and this takes 0.
             const double w = region_wedge_deg(s, r, a, b, faces[i], other);
+            if (r == 0) {
+                *outside = std::min(*outside, w);
+                continue;
+            }
             smallest = std::min(smallest, folds ? std::min(w, 360.0 - w) : w);
             if (deficit && w < target) *deficit += target - w;
         }
@@ -459,8 +464,9 @@ public:
     // opens by about offset / d radians per side, so offsets of at most kOpenStep of the
     // local edge raise a 2 degree wedge past 10. Kept when no face folds or drops under
     // min(its angle, kWedgeMinAngleDeg), no listed tip drops under min(its angle, the target),
-    // the smallest touched wedge (capped at the target) does not drop and it or the sum of
-    // the touched wedges' shortfalls under the target improves. Returns the moves.
+    // no wedge of the outside drops under min(its value, the target), the smallest touched
+    // wedge (capped at the target) does not drop and it or the sum of the touched wedges'
+    // shortfalls under the target improves. Returns the moves.
     std::size_t open_wedge_pass(double target_deg) {
         std::size_t changes = 0;
         std::vector<std::int32_t> verts;
@@ -474,8 +480,9 @@ public:
                 const double floor = std::min(star_quality(v, nullptr), kWedgeMinAngleDeg);
                 // Better: the smallest touched wedge (capped at the target) not lower, and
                 // it or the deficit under the target smaller.
-                double best_touched = std::min(star_wedge(v), target_deg);
-                double best_deficit = star_wedge_deficit(v, target_deg);
+                double best_touched = std::min(star_wedge(v), target_deg), outside_before = 0.0;
+                double best_deficit = star_wedge_deficit(v, target_deg, outside_before);
+                const double outside_floor = std::min(outside_before, target_deg);
                 const double tip_before = tip_angle(v);
                 const auto better = [&] {
                     const double q = star_quality(v, &normals_);
@@ -483,7 +490,9 @@ public:
                     if (tip_angle(v) < std::min(tip_before, target_deg) - 1e-9) return false;
                     const double touched = std::min(star_wedge(v), target_deg);
                     if (touched < best_touched - 1e-9) return false;
-                    const double deficit = star_wedge_deficit(v, target_deg);
+                    double outside = 0.0;
+                    const double deficit = star_wedge_deficit(v, target_deg, outside);
+                    if (outside < outside_floor - 1e-9) return false;
                     if (!(touched > best_touched + 1e-6 || deficit < best_deficit - 1e-6))
                         return false;
                     best_touched = touched, best_deficit = deficit;
@@ -510,10 +519,16 @@ public:
                 star_normals(v, normals_);
                 const double floor = std::min(star_quality(v, nullptr), kWedgeMinAngleDeg);
                 const double wedge_before = star_wedge(v);
+                double outside_before = 0.0;
+                star_wedge_deficit(v, target_deg, outside_before);
+                const double outside_floor = std::min(outside_before, target_deg);
                 double best_touched = vertex_fan_angle(v), best_own = fan_tet_angle(s_, fans_[i]);
                 const auto better = [&] {
                     const double q = star_quality(v, &normals_);
                     if (q <= 0.0 || q < floor) return false;
+                    double outside = 0.0;
+                    star_wedge_deficit(v, target_deg, outside);
+                    if (outside < outside_floor - 1e-9) return false;
                     const double touched = vertex_fan_angle(v), own = fan_tet_angle(s_, fans_[i]);
                     if (!wedge_better(touched, own, best_touched, best_own, target_deg))
                         return false;
@@ -623,7 +638,9 @@ private:
     // The wedges under `target` at the junction edges of the faces around v, summed as
     // target - w: the opening passes' second measure, which sees a rise of one of two equal
     // smallest wedges (the two regions of a symmetric knife edge) that their minimum hides.
-    double star_wedge_deficit(std::int32_t v, double target) {
+    // `outside`: the outside's smallest wedge there (360: none), which an opening move
+    // squeezes: two regions opened towards each other across a slit of the outside close it.
+    double star_wedge_deficit(std::int32_t v, double target, double& outside) {
         keys_.clear();
         for (auto k = offsets_[std::size_t(v)]; k < offsets_[std::size_t(v) + 1]; ++k) {
             const std::int32_t f = incident_[std::size_t(k)];
@@ -637,10 +654,11 @@ private:
         keys_.erase(std::unique(keys_.begin(), keys_.end()), keys_.end());
         const std::int64_t n = std::int64_t(s_.vertex_count());
         double deficit = 0.0;
+        outside = 360.0;
         for (const std::int64_t key : keys_)
             smallest_edge_wedge(s_, static_cast<std::int32_t>(key / n),
                                 static_cast<std::int32_t>(key % n), junction_.at(key), false,
-                                &deficit, target);
+                                &deficit, target, &outside);
         return deficit;
     }
 
@@ -1198,15 +1216,6 @@ SmoothingReport smooth_surface(core::SurfaceNetwork& surface,
     ctx.add("remesh.smoothing_moves", double(report.moves));
     ctx.add("remesh.edge_flips", double(report.flips));
     return report;
-}
-
-std::size_t open_thin_wedges(core::SurfaceNetwork& surface,
-                             const std::vector<const BackgroundPatch*>& patches,
-                             SurfaceConstraints& constraints, const SmoothingParams& params) {
-    if (params.iterations <= 0 || !params.open_thin_wedges) return 0;
-    Smoother smoother(surface, patches, constraints, params);
-    if (params.tip_target_deg > 0.0) smoother.build_tips(2.0 * params.tip_target_deg);
-    return open_passes(smoother, params);
 }
 
 }  // namespace frontmesh::surface

@@ -131,13 +131,4 @@ SmoothingReport smooth_surface(core::SurfaceNetwork& surface,
                                SurfaceConstraints& constraints, const SmoothingParams& params,
                                core::StageContext& ctx);
 
-/// The last passes of smooth_surface alone (SmoothingParams::open_thin_wedges): region wedges
-/// and forced tets under their targets raised by moves off the background, for a surface
-/// changed after its smoothing (remesh.preserve_volume's offsets can close a wedge that the
-/// smoothing opened). Returns the moves; none when `params.iterations` is 0 or the passes are
-/// off.
-std::size_t open_thin_wedges(core::SurfaceNetwork& surface,
-                             const std::vector<const BackgroundPatch*>& patches,
-                             SurfaceConstraints& constraints, const SmoothingParams& params);
-
 }  // namespace frontmesh::surface
