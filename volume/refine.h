@@ -46,9 +46,9 @@ struct RefineParams {
     bool sliver_pass = true;
     /// Tets whose smallest dihedral angle is below this are targeted by the sliver pass, degrees.
     /// Range (0, 70.5].
-    double sliver_dihedral_deg = 20.0;
+    double sliver_dihedral_deg = 25.0;
     /// Sweeps of the sliver pass. Range [1, 20].
-    int sliver_sweeps = 3;
+    int sliver_sweeps = 5;
     /// Largest interior edge, mm (0: no cap). Not a refine.* key: the recipe sets it from
     /// tetra.max_edge_length, so that one key caps the element size of the volume. Interior
     /// edges longer than it are split at their midpoint after node removal; the smoothing,

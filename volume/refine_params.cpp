@@ -45,10 +45,10 @@ const core::ParamTable<RefineParams>& refine_keys() {
          {},
          "",
          "beyond the paper: flips, node moves and Steiner nodes aimed at slivers"},
-        {"refine.sliver_dihedral_deg", &P::sliver_dihedral_deg, "20.0",
+        {"refine.sliver_dihedral_deg", &P::sliver_dihedral_deg, "25.0",
          core::above_up_to(0.0, 70.5), "deg",
          "tets with a smaller dihedral angle are targeted by the sliver pass"},
-        {"refine.sliver_sweeps", &P::sliver_sweeps, "3", core::closed(1, 20), "",
+        {"refine.sliver_sweeps", &P::sliver_sweeps, "5", core::closed(1, 20), "",
          "sweeps of the sliver pass"},
     };
     return table;

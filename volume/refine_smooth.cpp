@@ -122,7 +122,7 @@ std::pair<double, double> RefineOps::star_cost(std::int32_t v, const V3& p, Obje
         double c = s.skewness;
         if (objective == Objective::Combined) c = combined_cost(s, topo_.has_poor_face(tt));
         bool within_cap = true;  // tetra.max_edge_length: v's edges at p
-        for (int k = 0; k < 4 && within_cap; ++k) {
+        for (int k = 0; k < 4 && within_cap && cap2_ > 0.0; ++k) {
             const std::int32_t w = tt[static_cast<std::size_t>(k)];
             if (w != v) within_cap = is_within_cap(v, p.data(), w, topo_.xyz(w));
         }
