@@ -572,6 +572,8 @@ Recipe parse_recipe(const std::string& text, const std::string& path,
     recipe.extract.labels = in.labels;
     // The volume size cap of tetra is honoured by refine too (its edge splits).
     recipe.refine.max_edge_length = recipe.tetra.max_edge_length;
+    // ... and bounds remesh's automatic size, so that the surface is no coarser than the cap.
+    recipe.remesh.volume_edge_cap = recipe.tetra.max_edge_length;
     // An image's components are measured in voxels, by extract (issue 20).
     recipe.extract.min_component_volume_mm3 = recipe.repair.min_component_volume_mm3;
     recipe.repair.is_from_image = !in.image.empty();
@@ -630,6 +632,8 @@ std::string canonical_params(const Recipe& recipe, const std::string& section) {
           << ";check_si=" << m.check_self_intersections
           << ";max_volume=" << m.max_volume_change_percent << ";volume=" << m.preserve_volume;
         for (const auto& [label, size] : m.label_edge_length) s << ";label" << label << "=" << size;
+        if (m.volume_edge_cap > 0 && m.edge_length == 0)  // default: as before
+            s << ";volume_cap=" << m.volume_edge_cap;
     } else if (section == "tetra") {
         const auto& t = recipe.tetra;
         s << "stretching=" << t.stretching << ";height_smoothing=" << t.height_smoothing_iterations

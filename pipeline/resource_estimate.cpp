@@ -48,8 +48,7 @@ ResourceEstimate remesh_result(double triangles, double h, const std::string& ba
 
 ResourceEstimate remesh_estimate(const core::SurfaceNetwork& background,
                                  const surface::RemeshParams& params) {
-    const double h =
-        params.edge_length > 0.0 ? params.edge_length : surface::default_edge_length(background);
+    const double h = surface::resolved_edge_length(params, background);
     double area = 0.0, triangles = 0.0;
     for (std::size_t f = 0; f < background.face_count(); ++f) {  // one pass over the faces
         const auto& t = background.faces[f];
@@ -67,8 +66,10 @@ ResourceEstimate remesh_estimate(const core::SurfaceNetwork& background,
 ResourceEstimate remesh_estimate(const core::LabelImage& image,
                                  const std::vector<core::Label>& labels,
                                  const surface::RemeshParams& params) {
-    const double h =
+    double h =
         params.edge_length > 0.0 ? params.edge_length : 1.3 * std::cbrt(image.voxel_volume());
+    if (params.edge_length == 0.0 && params.volume_edge_cap > 0.0)
+        h = std::min(h, params.volume_edge_cap);  // as resolved_edge_length
     const Eigen::Vector3d& sp = image.spacing;
     const double face_area[3] = {sp.y() * sp.z(), sp.x() * sp.z(), sp.x() * sp.y()};
     // Voxel faces per label pair: the size is looked up once per pair, not per face.

@@ -53,7 +53,8 @@ struct ResourceEstimate {
 };
 
 /// Remesh of `background` with `params`: triangles = sum over faces of area / (sqrt(3)/4 s^2),
-/// s the face's target size: remesh.edge_length (0: default_edge_length of the background),
+/// s the face's target size: remesh.edge_length (0: default_edge_length of the background, at
+/// most tetra.max_edge_length),
 /// lowered by remesh.label_edge_length of either side's label, within the min and max edge
 /// lengths. A lower estimate where curvature or thickness adaptation refine further.
 /// Cost O(faces).

@@ -62,11 +62,6 @@ private:
 
 // --- the size field from the recipe -------------------------------------------------------
 
-// remesh.edge_length, resolved: 0 means the default derived from the background.
-double resolved_edge_length(const RemeshParams& params, const core::SurfaceNetwork& bg) {
-    return params.edge_length > 0.0 ? params.edge_length : default_edge_length(bg);
-}
-
 // The size field's parameters are the recipe's remesh.* keys with h resolved (§2: "by
 // specifying node distribution on the features, the local mesh density can be easily
 // controlled"). build_size_field turns them into the per-vertex field; RetryPolicy scales it.
@@ -638,6 +633,12 @@ std::optional<RemeshResult> background_result(const core::SurfaceNetwork& bg, co
 
 double default_edge_length(const core::SurfaceNetwork& background) {
     return 2.0 * mean_edge_length(background);
+}
+
+double resolved_edge_length(const RemeshParams& params, const core::SurfaceNetwork& background) {
+    if (params.edge_length > 0.0) return params.edge_length;
+    const double h = default_edge_length(background);
+    return params.volume_edge_cap > 0.0 ? std::min(h, params.volume_edge_cap) : h;
 }
 
 RemeshResult remesh(const core::SurfaceNetwork& bg, const RemeshParams& params,

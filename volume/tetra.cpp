@@ -100,15 +100,18 @@ RegionResult RegionMesher::run(ClosingOrder order, bool last_attempt) {
 /// levels. The bound: a level either sets a new smallest front (a count of faces, which can
 /// fall at most F_0 times from the initial front's F_0 faces) or is one of at most
 /// kLevelsWithoutProgress in a row that do not, so there are at most
-/// (kLevelsWithoutProgress + 1) (F_0 + 1) levels. A level adding one tet and removing it
-/// again by local remeshing forever (a livelock) is thus ended and left to the closing phase.
-/// A front that grows past max_front_ (init_front) is degenerating (thin layers jammed by
-/// local remeshing): the loop ends there too, as does a stage (run_stage), which keeps the
-/// work proportional to the region's boundary.
+/// (kLevelsWithoutProgress + 1) (F_0 + 1) levels (see below under a size cap). A level adding one
+/// tet and removing it again by local remeshing forever (a livelock) is thus ended and left to the
+/// closing phase. A front that grows past max_front_ (init_front) is degenerating (thin layers
+/// jammed by local remeshing): the loop ends there too, as does a stage (run_stage), which keeps
+/// the work proportional to the region's boundary.
 std::int32_t RegionMesher::mesh_levels() {
     constexpr std::int32_t kLevelsWithoutProgress = 16;
     std::int32_t levels = 0, since_best = 0;
-    std::int64_t best = front_.size();
+    // Under tetra.max_edge_length the level fronts may well outnumber the boundary's
+    // triangles (finer than the surface) for many levels: the count to beat starts at
+    // max_front_, so the bound is (kLevelsWithoutProgress + 1) (max_front_ + 1) levels there.
+    std::int64_t best = params_.max_edge_length > 0.0 ? max_front_ : front_.size();
     for (front_no_ = 0;
          front_.size() > 0 && since_best <= kLevelsWithoutProgress && front_.size() <= max_front_;
          ++front_no_) {
@@ -169,9 +172,22 @@ void RegionMesher::init_front(const core::SurfaceNetwork& s) {
         }
         front_.add_face(a, b, c);
     }
-    remesh_budget_ = 1000 + 2 * static_cast<std::int64_t>(faces.size());
+    // The work bounds scale with the boundary's triangle count, or, under tetra.max_edge_length
+    // L, with the count of triangles of edge L that tile the boundary, if that is larger: the
+    // level fronts then have edges of about L whatever the surface's own (a ball of radius
+    // 9 mm with 1.6 mm surface edges and L = 1.2 mm: 3,194 front triangles, over the bound
+    // 4 F_0 + 1,000 of its 550 boundary triangles, where the capped front is expected).
+    std::int64_t tiles = 0;
+    if (params_.max_edge_length > 0.0) {
+        double area = 0.0;
+        for (std::int32_t f = 0; f < front_.id_bound(); ++f)
+            if (front_.is_alive(f)) area += front_.face(f).area;
+        const double L = params_.max_edge_length;
+        tiles = static_cast<std::int64_t>(std::ceil(area / (std::sqrt(3.0) / 4.0 * L * L)));
+    }
+    remesh_budget_ = 1000 + 2 * std::max(static_cast<std::int64_t>(faces.size()), tiles);
     // a layered front shrinks as it advances; one four times its start has degenerated
-    max_front_ = 4 * static_cast<std::int64_t>(front_.size()) + 1000;
+    max_front_ = 4 * std::max(static_cast<std::int64_t>(front_.size()), tiles) + 1000;
 }
 
 // ---- §3.1.3 n-th level front setup ----------------------------------------------------------

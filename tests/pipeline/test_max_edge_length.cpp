@@ -206,3 +206,46 @@ TEST_CASE("tetra.max_edge_length keeps the quality of the run without it",
     const InteriorEdges edges = interior_edges(io::read_tet_mesh(dir + "/capped/mesh.vtu"), 2.0);
     CHECK(edges.worst_ratio <= 1 + 1e-12);
 }
+
+TEST_CASE("tetra.max_edge_length far below the surface's edges still meshes",
+          "[pipeline][max_edge_length]") {
+    // A given surface (kept as it is) with edges up to 3.2 mm under a 1 mm cap: the level
+    // fronts are far finer than the boundary. Before the work bounds scaled with the capped
+    // front (triangles of edge L tiling the boundary), tetra stopped with "the front
+    // degenerated" (exit 1 on valid input).
+    const Meshed tight = mesh_sphere(1.0);
+    CHECK(volume::check_tet_mesh(tight.tetra).valid());
+    const volume::TetMeshCheck check = volume::check_tet_mesh(tight.refined);
+    INFO(check.summary());
+    CHECK(check.valid());
+    CHECK(tight.left == 0);
+    CHECK(interior_edges(tight.refined, 1.0).worst_ratio <= 1 + 1e-12);
+}
+
+TEST_CASE("tetra.max_edge_length bounds remesh's automatic size", "[pipeline][max_edge_length]") {
+    // The automatic size of this ball is about 2 mm; under a 1.2 mm cap the surface is
+    // remeshed at 1.2 mm, so that the tets at the surface are not flat (with 2 mm triangles:
+    // exit 1 first, then 1% of tets over skewness 0.8 and a 0.12 deg dihedral angle at 0.8 mm).
+    const std::string dir = fixtures::temp_dir("max_edge_length_surface");
+    fixtures::write_metaimage(fixtures::sphere_image(24, 9.0), dir + "/ball.mha");
+    write_file(dir + "/r.yaml", "input:\n  image: ball.mha\noutput:\n  dir: out\n");
+    const auto r = run_frontmesh("run r.yaml --quiet --set tetra.max_edge_length=1.2", dir);
+    INFO(r.err);
+    REQUIRE(r.exit_code == 0);
+    const std::string summary = frontmesh::testing::slurp(dir + "/out/summary.json");
+    CHECK_THAT(summary, Catch::Contains("\"remesh.edge_length_mm\": 1.2,"));
+    const FinalQuality q = final_quality(summary);
+    INFO(q.over_08 << " of " << q.tets << " tets over skewness 0.8, min dihedral " << q.min_dihedral
+                   << " deg");
+    CHECK(q.share_over_08() <= 0.0001);
+    CHECK(q.min_dihedral >= 10.0);
+    // An explicit remesh.edge_length is the user's: kept.
+    const auto e = run_frontmesh(
+        "run r.yaml --quiet --set output.dir=explicit --set tetra.max_edge_length=1.2 "
+        "--set remesh.edge_length=1.8",
+        dir);
+    INFO(e.err);
+    REQUIRE(e.exit_code == 0);
+    CHECK_THAT(frontmesh::testing::slurp(dir + "/explicit/summary.json"),
+               Catch::Contains("\"remesh.edge_length_mm\": 1.8,"));
+}
