@@ -36,7 +36,12 @@ except AttributeError:
     pass
 view.Background = [1, 1, 1]
 reader = XMLUnstructuredGridReader(FileName=[mesh])
+# The bounds exist only once the reader has run: before, they are VTK's empty box
+# (1, -1, ...), which put the cut at z = 0 and the camera below the mesh.
+reader.UpdatePipeline()
 b = reader.GetDataInformation().GetBounds()
+if not (b[0] <= b[1] and b[2] <= b[3] and b[4] <= b[5]):
+    sys.exit("paraview-screenshot: %s holds no cells" % mesh)
 centre = [(b[0] + b[1]) / 2, (b[2] + b[3]) / 2, (b[4] + b[5]) / 2]
 clip = Clip(Input=reader)
 clip.ClipType = 'Plane'
