@@ -338,7 +338,14 @@ std::string svg_cross_section(const core::TetMesh& mesh,
     const double scale = std::min((W - 2 * L) / span_x, 520.0 / span_y);  // px per mm
     const double pw = span_x * scale, ph = span_y * scale;
     const double legend_top = T + ph + 44;
-    const double H = legend_top + legend_row * double((labels.size() + 2) / 3) + 10;
+    // The legend names the regions the plane cuts (AAL: 71 of 116 at mid-height), then a
+    // line for the rest, which the regions table lists.
+    std::vector<core::Label> shown;
+    for (const core::Label l : labels)
+        if (cuts.count(l)) shown.push_back(l);
+    const std::size_t not_cut = labels.size() - shown.size();
+    const double H =
+        legend_top + legend_row * double((shown.size() + 2) / 3 + (not_cut > 0 ? 1 : 0)) + 10;
     auto px = [&](double x) { return L + (x - low.x()) * scale; };
     auto py = [&](double y) { return T + ph - (y - low.y()) * scale; };
     std::map<core::Label, std::string> paths;  // one SVG path per region, a subpath per tet
@@ -380,17 +387,22 @@ std::string svg_cross_section(const core::TetMesh& mesh,
     o << "<text x=\"" << fixed(L + pw, 1) << "\" y=\"" << fixed(T + ph + 22, 1)
       << "\" text-anchor=\"end\">x " << fixed(low.x(), 1) << " to " << fixed(high.x(), 1)
       << " mm, y " << fixed(low.y(), 1) << " to " << fixed(high.y(), 1) << " mm</text>\n";
-    for (std::size_t i = 0; i < labels.size(); ++i) {
+    for (std::size_t i = 0; i < shown.size(); ++i) {
         const double x = L + double(i % 3) * 232.0;
         const double y = legend_top + legend_row * double(i / 3);
-        const auto name = names.find(labels[i]);
-        std::string text = std::to_string(labels[i]);
+        const auto name = names.find(shown[i]);
+        std::string text = std::to_string(shown[i]);
         if (name != names.end()) text += " " + name->second;
         if (text.size() > 30) text = text.substr(0, 29) + "...";
         o << "<rect x=\"" << x << "\" y=\"" << y - 11 << "\" width=\"12\" height=\"12\" fill=\""
-          << region_colour(labels[i], colours) << "\"/><text x=\"" << x + 17 << "\" y=\"" << y
-          << "\">" << escaped(text) << " (" << cut[labels[i]] << " cut)</text>\n";
+          << region_colour(shown[i], colours) << "\"/><text x=\"" << x + 17 << "\" y=\"" << y
+          << "\">" << escaped(text) << " (" << cut[shown[i]] << " cut)</text>\n";
     }
+    if (not_cut > 0)
+        o << "<text x=\"" << L << "\" y=\""
+          << fixed(legend_top + legend_row * double((shown.size() + 2) / 3), 1) << "\">" << not_cut
+          << (not_cut == 1 ? " region" : " regions")
+          << " not cut by this plane (in the regions table below)</text>\n";
     o << "</svg>\n";
     return o.str();
 }
@@ -472,11 +484,12 @@ std::vector<std::string> write_quality_report(const std::string& dir, const core
     h << "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>frontmesh "
          "quality report: "
       << escaped(title)
-      << "</title>\n<style>body{font-family:sans-serif;max-width:1100px;margin:2em auto;"
+      << "</title>\n<style>body{font-family:sans-serif;max-width:1300px;margin:2em auto;"
          "color:#222}table{border-collapse:collapse;margin:1em 0}td,th{border:1px solid #ccc;"
-         "padding:3px 8px;text-align:right;vertical-align:top}th{background:#f2f2f2}"
+         "padding:3px 8px;text-align:right;vertical-align:top;white-space:nowrap}"
+         "th{background:#f2f2f2;white-space:normal}"
          "td:first-child,th:first-child{text-align:left}td.text{text-align:left}"
-         "td.params{text-align:left;font-size:85%;color:#444;max-width:560px}"
+         "td.params{text-align:left;font-size:85%;color:#444;max-width:560px;white-space:normal}"
          "svg{display:block;margin:1em 0}.charts{display:flex;flex-wrap:wrap;gap:0 16px}"
          ".swatch{display:inline-block;width:10px;height:10px;margin-right:6px}</style></head>"
          "<body>\n<h1>Quality report</h1>\n<p>"

@@ -178,6 +178,15 @@ RegionChecks check_regions(const core::SurfaceNetwork& bg, const core::SurfaceNe
     return result;
 }
 
+bool check_inverted_after_mend(const core::SurfaceNetwork& out,
+                               const std::vector<std::int32_t>& face_patch, int round,
+                               RetryPolicy& retry, core::StageContext& ctx) {
+    RegionChecks result;
+    check_inverted_parts(out, face_patch, round + 1 >= RetryPolicy::kRounds, round, retry, ctx,
+                         result);
+    return result.again;
+}
+
 bool mend_self_intersections(core::SurfaceNetwork& out, const std::vector<double>& front_xyz,
                              const std::vector<std::int32_t>& face_patch, int round,
                              RetryPolicy& retry, core::StageContext& ctx) {

@@ -338,6 +338,14 @@ bool mend_self_intersections(core::SurfaceNetwork& out, const std::vector<double
                              const std::vector<std::int32_t>& face_patch, int round,
                              RetryPolicy& retry, core::StageContext& ctx);
 
+/// Parts of region boundaries turned inside out after the crossings are mended (the mend puts
+/// vertices back where the front put them, after check_regions looked): shrink sites or
+/// background triangles there and true (mesh again), or in the last round GeometryError
+/// naming the place; false when there are none.
+bool check_inverted_after_mend(const core::SurfaceNetwork& out,
+                               const std::vector<std::int32_t>& face_patch, int round,
+                               RetryPolicy& retry, core::StageContext& ctx);
+
 /// The result: the surface, the size field's target size per vertex (curve points by their
 /// nearest background vertex), and the counters of its quality, wedges and forced tets.
 RemeshResult finished_result(const SizeField& size, core::SurfaceNetwork out,

@@ -159,6 +159,9 @@ TEST_CASE("report.html: names, per-region volumes and sizes, stages, a cross-sec
     CHECK(area == Approx(box).epsilon(1e-3));
     CHECK_THAT(section, Catch::Contains("data-label=\"1\"") && Catch::Contains("Left &amp; part") &&
                             Catch::Contains("z = 1.50 mm"));
+    // The legend names the regions cut, and counts the others (AAL: 45 of 116 not cut).
+    CHECK_THAT(section, !Catch::Contains("data-label=\"2\"") && !Catch::Contains("(0 cut)") &&
+                            Catch::Contains("1 region not cut by this plane"));
 
     pipeline::ReportContext context;
     context.title = "cube";
@@ -225,8 +228,14 @@ std::string hex(const io::Rgb& c) {
 
 TEST_CASE("report colours are mesh.vtu's label colours, the same in every run",
           "[pipeline][report]") {
-    // Regions 1 and 2; then region 1 relabelled 9, so that label 2 comes first in the run.
-    const core::TetMesh mesh = fixtures::cube_tet_mesh(3, 1.0, true);
+    // Regions 1 and 2, both cut by the mid-height plane (x below and above 1.5); then region 1
+    // relabelled 9, so that label 2 comes first in the run.
+    core::TetMesh mesh = fixtures::cube_tet_mesh(3, 1.0, true);
+    for (std::size_t t = 0; t < mesh.tets.size(); ++t) {
+        double x = 0;
+        for (const std::int32_t v : mesh.tets[t]) x += mesh.point(v).x() / 4;
+        mesh.region[t] = x < 1.5 ? 1 : 2;
+    }
     core::TetMesh other = mesh;
     for (core::Label& r : other.region)
         if (r == 1) r = 9;

@@ -1,13 +1,14 @@
 #!/usr/bin/python3
-"""Runs the surfaces of tests/torture/regressions/ through tetra and refine and referees each.
+"""Runs the surfaces of tests/torture/regressions/ through the stages and referees each.
 
   regressions.py [--frontmesh BIN] [--out DIR] [--timeout S]
 
 Each *.vtu there is a valid surface on which a stage once failed (README.md says which and
-why). For each: `frontmesh run --from tetra` of a recipe with the surface as input.surface
-(the surface goes to tetra as it is), then check
+why). For each: `frontmesh run` of a recipe with the surface as input.surface, from tetra
+(the surface goes to tetra as it is) or, for the names starting with `remesh-`, from repair
+(a background surface, remeshed first); a NAME.yaml beside NAME.vtu adds recipe keys. Then
   run    exit 0 within the time limit (a time-out is a hang)
-  valid  ../shared/tools/meshcheck.py mesh.vtu --surface <the surface> --strict-surface
+  valid  ../shared/tools/meshcheck.py mesh.vtu --surface <tetra's input> --strict-surface
          says VALID
 One line per surface; the last line is 'N passed, N failed'. Exit 0 when nothing failed.
 """
@@ -46,9 +47,18 @@ def main():
         shutil.rmtree(d, ignore_errors=True)
         os.makedirs(d)
         recipe = os.path.join(d, "recipe.yaml")
+        extra = os.path.splitext(surface)[0] + ".yaml"
         with open(recipe, "w") as f:
             f.write("input:\n  surface: %s\noutput:\n  dir: %s\n" % (surface, os.path.join(d, "out")))
-        cmd = [args.frontmesh, "run", recipe, "--from", "tetra", "--threads", "1", "--quiet"]
+            if os.path.exists(extra):
+                with open(extra) as e:
+                    f.write(e.read())
+        from_remesh = name.startswith("remesh-")
+        cmd = [args.frontmesh, "run", recipe, "--threads", "1", "--quiet"]
+        if not from_remesh:
+            cmd[3:3] = ["--from", "tetra"]
+        reference = (os.path.join(d, "out", "checkpoints", "03-remesh.vtu") if from_remesh
+                     else surface)
         why = None
         try:
             r = subprocess.run(cmd, capture_output=True, text=True, timeout=args.timeout)
@@ -59,7 +69,7 @@ def main():
             why = "no result after %d s (a hang)" % args.timeout
         if why is None:
             mesh = os.path.join(d, "out", "mesh.vtu")
-            c = subprocess.run(["/usr/bin/python3", meshcheck, mesh, "--surface", surface,
+            c = subprocess.run(["/usr/bin/python3", meshcheck, mesh, "--surface", reference,
                                 "--strict-surface"], capture_output=True, text=True)
             if c.returncode != 0 or "RESULT   VALID" not in c.stdout:
                 why = "meshcheck: " + (c.stdout.strip().splitlines() or ["?"])[-1]
