@@ -153,7 +153,7 @@ TEST_CASE("check_mesh: invalid meshes are found", "[pipeline][check]") {
     }
 }
 
-TEST_CASE("frontmesh check agrees with meshcheck.py", "[pipeline][check][referee]") {
+TEST_CASE("frontmesh check agrees with meshcheck.py", "[pipeline][asan-slow][check][referee]") {
     if (!have_referee()) {
         WARN("meshcheck.py or Debian's python3-numpy/-meshio/-vtk9 missing: skipped");
         return;

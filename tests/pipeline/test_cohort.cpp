@@ -134,7 +134,7 @@ TEST_CASE("read_manifest: RFC 4180 quoting, relative images, empty cells", "[pip
 }
 
 TEST_CASE("cohort: a failed subject is recorded, the others finish, a re-run does no work",
-          "[pipeline]") {
+          "[pipeline][asan-slow]") {
     const std::string dir = cohort_dir("cohort_run");
     write_file(dir + "/manifest.csv", kManifest);
     const fs::path out = fs::path(dir) / "out";
@@ -283,7 +283,7 @@ TEST_CASE("cohort: a tetrahedral result fills the mesh columns", "[pipeline]") {
     CHECK_THAT(slurp(fs::path(dir) / "out/cohort-summary.json"), Catch::Contains("\"tets\": "));
 }
 
-TEST_CASE("cohort: -j 2 gives the rows of -j 1", "[pipeline]") {
+TEST_CASE("cohort: -j 2 gives the rows of -j 1", "[pipeline][asan-slow]") {
     const std::string dir = cohort_dir("cohort_jobs");
     write_file(dir + "/manifest.csv", kManifest);
     // The surface stages are enough to compare the two schedules (--until reaches every subject).
@@ -394,7 +394,8 @@ TEST_CASE("cohort: a crashing subject is recorded and cannot take the others dow
     }
 }
 
-TEST_CASE("cohort Snakefile runs two subjects locally with snakemake -j 2", "[pipeline][e2e]") {
+TEST_CASE("cohort Snakefile runs two subjects locally with snakemake -j 2",
+          "[pipeline][asan-slow][e2e]") {
     if (std::system("command -v snakemake > /dev/null 2>&1") != 0) {
         WARN("snakemake is not on PATH (apt-get install snakemake); Snakefile test skipped");
         return;

@@ -33,7 +33,8 @@ int shell(const std::string& command, const std::string& log) {
 }
 }  // namespace
 
-TEST_CASE("the installed CMake package builds and runs examples/consumer", "[pipeline][install]") {
+TEST_CASE("the installed CMake package builds and runs examples/consumer",
+          "[pipeline][asan-slow][install]") {
     if (kSanitized)
         FM_SKIP("a sanitizer build: the installed package is tested in the normal build");
     const fs::path build =

@@ -86,7 +86,7 @@ Meshed mesh_sphere(double cap) {
 }  // namespace
 
 TEST_CASE("tetra.max_edge_length caps the interior edges of tetra and refine",
-          "[pipeline][max_edge_length]") {
+          "[pipeline][asan-slow][max_edge_length]") {
     const Meshed free = mesh_sphere(0.0);
     const double cap = 3.5;  // above every surface edge: the cap holds everywhere
     const InteriorEdges free_tetra = interior_edges(free.tetra, cap);
@@ -130,7 +130,8 @@ TEST_CASE("tetra.max_edge_length caps the interior edges of tetra and refine",
     CHECK(check.quality.min_dihedral_deg > 5.0);
 }
 
-TEST_CASE("tetra.max_edge_length from a recipe reaches mesh.vtu", "[pipeline][max_edge_length]") {
+TEST_CASE("tetra.max_edge_length from a recipe reaches mesh.vtu",
+          "[pipeline][asan-slow][max_edge_length]") {
     const std::string dir = fixtures::temp_dir("max_edge_length_run");
     fixtures::write_metaimage(fixtures::sphere_image(24, 9.0), dir + "/ball.mha");
     write_file(dir + "/r.yaml",
@@ -173,7 +174,7 @@ FinalQuality final_quality(const std::string& summary) {
 }  // namespace
 
 TEST_CASE("tetra.max_edge_length keeps the quality of the run without it",
-          "[pipeline][max_edge_length]") {
+          "[pipeline][asan-slow][max_edge_length]") {
     // Nested ellipsoids (three regions, a remeshed surface of good triangles), with and without
     // a cap of 2 mm. The quality passes run after the splits and keep the cap, so the capped
     // mesh is about as good as the free one. With the split pass after the sliver pass (before
@@ -208,7 +209,7 @@ TEST_CASE("tetra.max_edge_length keeps the quality of the run without it",
 }
 
 TEST_CASE("tetra.max_edge_length far below the surface's edges still meshes",
-          "[pipeline][max_edge_length]") {
+          "[pipeline][asan-slow][max_edge_length]") {
     // A given surface (kept as it is) with edges up to 3.2 mm under a 1 mm cap: the level
     // fronts are far finer than the boundary. Before the work bounds scaled with the capped
     // front (triangles of edge L tiling the boundary), tetra stopped with "the front
@@ -222,7 +223,8 @@ TEST_CASE("tetra.max_edge_length far below the surface's edges still meshes",
     CHECK(interior_edges(tight.refined, 1.0).worst_ratio <= 1 + 1e-12);
 }
 
-TEST_CASE("tetra.max_edge_length bounds remesh's automatic size", "[pipeline][max_edge_length]") {
+TEST_CASE("tetra.max_edge_length bounds remesh's automatic size",
+          "[pipeline][asan-slow][max_edge_length]") {
     // The automatic size of this ball is about 2 mm; under a 1.2 mm cap the surface is
     // remeshed at 1.2 mm, so that the tets at the surface are not flat (with 2 mm triangles:
     // exit 1 first, then 1% of tets over skewness 0.8 and a 0.12 deg dihedral angle at 0.8 mm).

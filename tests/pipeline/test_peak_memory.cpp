@@ -10,7 +10,18 @@
 
 #include "pipeline/peak_memory.h"
 #include "tests/fixtures/phantoms.h"
+#include "tests/fixtures/skip.h"
 #include "tests/pipeline/cli_helpers.h"
+
+// clang names AddressSanitizer through __has_feature, gcc through __SANITIZE_ADDRESS__.
+#if defined(__has_feature)
+#if __has_feature(address_sanitizer)
+#define FRONTMESH_HAS_ASAN 1
+#endif
+#endif
+#ifndef FRONTMESH_HAS_ASAN
+#define FRONTMESH_HAS_ASAN 0
+#endif
 
 using namespace frontmesh;
 
@@ -41,6 +52,11 @@ TEST_CASE("VmHWM is read from a status text", "[pipeline][peak_memory]") {
 
 TEST_CASE("a later, smaller stretch reports less than an earlier, larger one",
           "[pipeline][peak_memory]") {
+#if defined(__SANITIZE_ADDRESS__) || FRONTMESH_HAS_ASAN
+    // ASan's allocator keeps freed blocks in its quarantine (mapped and resident): the
+    // second stretch measured 257 MB after the first's 253 MB.
+    FM_SKIP("freed memory stays resident under AddressSanitizer");
+#endif
     pipeline::PeakMemory memory;
     memory.start();
     touch_and_free(96);  // freed with munmap: above glibc's largest mmap threshold (32 MB)

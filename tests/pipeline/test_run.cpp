@@ -33,7 +33,7 @@ std::string phantom_run_dir(const std::string& name) {
 
 }  // namespace
 
-TEST_CASE("run writes checkpoints, run.pvd, summary, log and result", "[pipeline]") {
+TEST_CASE("run writes checkpoints, run.pvd, summary, log and result", "[pipeline][asan-slow]") {
     const std::string dir = phantom_run_dir("run_outputs");
     const auto r = run_frontmesh("run recipe.yaml --quiet --until repair", dir);
     INFO(r.err);
@@ -144,7 +144,7 @@ TEST_CASE("help, version and keys commands", "[pipeline]") {
 }
 
 TEST_CASE("Colin27 brain: closed surface passes meshcheck, checkpoints read by VTK",
-          "[pipeline][e2e]") {
+          "[pipeline][asan-slow][e2e]") {
     const std::string dir = fixtures::temp_dir("run_colin27");
     const std::string recipe = std::string(FRONTMESH_SOURCE_DIR) + "/examples/colin27-brain.yaml";
     const auto r = run_frontmesh(
@@ -186,7 +186,8 @@ TEST_CASE("Colin27 brain: closed surface passes meshcheck, checkpoints read by V
     CHECK(WEXITSTATUS(status) == 0);
 }
 
-TEST_CASE("AAL atlas: 116 closed, oriented regions through the command line", "[pipeline][e2e]") {
+TEST_CASE("AAL atlas: 116 closed, oriented regions through the command line",
+          "[pipeline][asan-slow][e2e]") {
     const std::string dir = fixtures::temp_dir("run_aal");
     const std::string recipe = std::string(FRONTMESH_SOURCE_DIR) + "/examples/aal-atlas.yaml";
     const auto r = run_frontmesh(
@@ -200,7 +201,8 @@ TEST_CASE("AAL atlas: 116 closed, oriented regions through the command line", "[
             Catch::Contains("\"frame\": \"ras\""));
 }
 
-TEST_CASE("checkpoints are identical byte for byte across runs and thread counts", "[pipeline]") {
+TEST_CASE("checkpoints are identical byte for byte across runs and thread counts",
+          "[pipeline][asan-slow]") {
     const std::string dir = phantom_run_dir("run_determinism");
     REQUIRE(run_frontmesh("run recipe.yaml --quiet --threads 1", dir).exit_code == 0);
     std::vector<std::string> first;

@@ -37,7 +37,7 @@ std::pair<int, std::string> referee(const fs::path& mesh, const fs::path& surfac
 }  // namespace
 
 TEST_CASE("nested phantom: image to refined tet mesh, three regions, surface kept",
-          "[pipeline][volume]") {
+          "[pipeline][asan-slow][volume]") {
     const std::string dir = fixtures::temp_dir("run_volume_phantom");
     fixtures::write_metaimage(fixtures::nested_ellipsoids_image(1.0, 0.6), dir + "/phantom.mha");
     write_file(dir + "/recipe.yaml",
@@ -195,7 +195,7 @@ TEST_CASE("given triangles over 130 degrees are named before tetra keeps them",
 }
 
 TEST_CASE("AAL left hippocampus: real image to refined tets, refereed, exported",
-          "[pipeline][volume][e2e]") {
+          "[pipeline][asan-slow][volume][e2e]") {
     const std::string dir = fixtures::temp_dir("run_volume_hippocampus");
     const std::string recipe = std::string(FRONTMESH_SOURCE_DIR) + "/examples/aal-hippocampus.yaml";
     const auto r =

@@ -48,7 +48,7 @@ std::string wall_of(const std::string& entry) {
 }  // namespace
 
 TEST_CASE("summary.json lists outputs, names, recipe, image and times and passes its schema",
-          "[pipeline][summary]") {
+          "[pipeline][asan-slow][summary]") {
     const std::string dir = fixtures::temp_dir("summary_schema");
     fixtures::write_metaimage(fixtures::nested_ellipsoids_image(1.0, 0.6), dir + "/phantom.mha");
     write_file(dir + "/phantom.txt", "1 Outer shell\n2 Middle\n3 Core\n");  // beside the image
