@@ -38,6 +38,7 @@
 #include <vtkXMLUnstructuredGridWriter.h>
 
 #include "io/atomic_file.h"
+#include "io/format_checks.h"
 #include "io/mesh_io.h"
 #include "pipeline/core/error.h"
 #include "pipeline/core/quality.h"
@@ -981,6 +982,23 @@ TEST_CASE("read_surface refuses compressed VTK XML blocks of impossible sizes", 
         CHECK_THAT(input_error_message([&] { io::read_surface(dir + "/appended.vtp"); }),
                    Catch::Contains("appended.vtp") && Catch::Contains("compressed bytes"));
     }
+    // VTK's total size wraps for 0 blocks with a last block of another size, and it then
+    // reads block 0 of none (found by fuzz_mesh); a last block larger than the others makes
+    // it read past its list of blocks.
+    SECTION("raw appended: no block, or a last block larger than the others") {
+        const std::string text = write(dir + "/blocks.vtp", true);
+        const std::size_t data = text.find('_', text.find("<AppendedData")) + 1;
+        std::string bad = text;
+        bad.replace(data, 4, std::string("\0\0\0\0", 4));  // 0 blocks, the rest kept
+        write_text(dir + "/none.vtp", bad);
+        CHECK_THAT(input_error_message([&] { io::read_surface(dir + "/none.vtp"); }),
+                   Catch::Contains("none.vtp") && Catch::Contains("no block but a last block"));
+        bad = text;
+        bad.replace(data + 4, 4, std::string("\x01\0\0\0", 4));  // blocks of 1 byte
+        write_text(dir + "/last.vtp", bad);
+        CHECK_THAT(input_error_message([&] { io::read_surface(dir + "/last.vtp"); }),
+                   Catch::Contains("last.vtp") && Catch::Contains("larger than its blocks of 1"));
+    }
     // VTK reads the leading number of an offset: "20=" pointed into another array's data,
     // whose bytes announced 77e12 blocks (found by fuzz_mesh).
     SECTION("raw appended: an offset that is not a plain number") {
@@ -1086,6 +1104,53 @@ static std::string write_vtp(vtkPolyData* poly, const std::string& path, Mode mo
     if (mode == Mode::Binary || mode == Mode::RawAppended) writer->SetCompressorTypeToNone();
     REQUIRE(writer->Write() == 1);
     return path;
+}
+
+// Found by fuzz_surface (issue 21): VTK reads ascii values with `stream >> v` into the
+// array's C type and, when a value does not fit, dereferences null while reporting the short
+// array (an Int32 cell array holding 12475941756269202993). Values outside their type are
+// refused; those at the limits of each type, and tiny floats, are not.
+TEST_CASE("read_surface refuses ascii VTK XML values outside their type", "[io]") {
+    const std::string dir = frontmesh::fixtures::temp_dir("vtu_ascii_ranges");
+    auto vtu = [&](const std::string& type, const std::string& value) {
+        const std::string path = dir + "/t.vtu";
+        write_text(path,
+                   "<?xml version=\"1.0\"?>\n<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" "
+                   "byte_order=\"LittleEndian\" header_type=\"UInt64\"><UnstructuredGrid><Piece "
+                   "NumberOfPoints=\"3\" NumberOfCells=\"1\"><Points><DataArray type=\"Float64\" "
+                   "NumberOfComponents=\"3\" format=\"ascii\">0 0 0 1 0 0 0 1 0</DataArray>"
+                   "</Points><Cells><DataArray type=\"Int64\" Name=\"connectivity\" "
+                   "format=\"ascii\">0 1 2</DataArray><DataArray type=\"Int64\" Name=\"offsets\" "
+                   "format=\"ascii\">3</DataArray><DataArray type=\"UInt8\" Name=\"types\" "
+                   "format=\"ascii\">5</DataArray></Cells><CellData><DataArray type=\"Int32\" "
+                   "Name=\"region_in\" format=\"ascii\">1</DataArray><DataArray type=\"" +
+                       type + "\" Name=\"region_out\" format=\"ascii\">" + value +
+                       "</DataArray></CellData></Piece></UnstructuredGrid></VTKFile>\n");
+        return path;
+    };
+    const std::vector<std::pair<std::string, std::string>> outside = {
+        {"Int32", "12475941756269202993"}, {"Int32", "2147483648"},  {"Int32", "-2147483649"},
+        {"Int8", "128"},                   {"Int8", "-129"},          {"UInt8", "256"},
+        {"UInt8", "-1"},                   {"Int16", "40000"},        {"UInt16", "65536"},
+        {"UInt32", "4294967296"},          {"UInt64", "-1"},          {"Int64", "9223372036854775808"},
+        {"Float32", "1e39"},               {"Float32", "-3.5e38"}};
+    for (const auto& [type, value] : outside) {
+        CAPTURE(type, value);
+        const std::string path = vtu(type, value);
+        CHECK_THAT(input_error_message([&] { io::read_surface(path); }),
+                   Catch::Contains("t.vtu") && Catch::Contains("'region_out' value 0 '" + value) &&
+                       Catch::Contains("outside the range of " + type));
+    }
+    const std::vector<std::pair<std::string, std::string>> inside = {
+        {"Int8", "-128"},  {"Int8", "127"},          {"UInt8", "255"},
+        {"Int16", "-32768"}, {"UInt16", "65535"},    {"Int32", "2147483647"},
+        {"Int32", "+2"},   {"UInt32", "4294967295"}, {"Int64", "-9223372036854775808"},
+        {"UInt64", "18446744073709551615"},          {"Float32", "3.4e38"},
+        {"Float32", "1e-50"}, {"Float64", "1e300"}};
+    for (const auto& [type, value] : inside) {
+        CAPTURE(type, value);
+        CHECK_NOTHROW(io::check_vtk_xml(vtu(type, value)));
+    }
 }
 
 TEST_CASE("read_surface refuses cell offsets beyond the connectivity", "[io]") {
