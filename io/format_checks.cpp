@@ -2,8 +2,8 @@
 
 #include <algorithm>
 #include <cctype>
-#include <cmath>
 #include <charconv>
+#include <cmath>
 #include <cstdint>
 #include <fstream>
 #include <iterator>
@@ -813,7 +813,8 @@ private:
         // extraction does not read; a Float32 beyond the largest float fails there too.
         if (!parse_number(t, v) || t.find_first_not_of("0123456789+-.eE") != t.npos)
             fail(e, "value " + std::to_string(index) + " '" + token + "' is not a number");
-        if (type == "Float32" && std::abs(v) > static_cast<double>(std::numeric_limits<float>::max()))
+        if (type == "Float32" &&
+            std::abs(v) > static_cast<double>(std::numeric_limits<float>::max()))
             fail(e, "value " + std::to_string(index) + " '" + token +
                         "' is outside the range of Float32");
     }
@@ -865,8 +866,8 @@ private:
             fail(e, "announces a last block of " + std::to_string(last_size) +
                         " bytes, larger than its blocks of " + std::to_string(block_size));
         if (blocks == 0 && last_size != 0 && last_size != block_size)
-            fail(e, "announces no block but a last block of " + std::to_string(last_size) +
-                        " bytes");
+            fail(e,
+                 "announces no block but a last block of " + std::to_string(last_size) + " bytes");
         if (block_size > kMaxBlock || last_size > kMaxBlock)
             fail(e, "announces blocks of " + std::to_string(std::max(block_size, last_size)) +
                         " bytes (at most 2 GiB)");

@@ -1129,11 +1129,20 @@ TEST_CASE("read_surface refuses ascii VTK XML values outside their type", "[io]"
         return path;
     };
     const std::vector<std::pair<std::string, std::string>> outside = {
-        {"Int32", "12475941756269202993"}, {"Int32", "2147483648"},  {"Int32", "-2147483649"},
-        {"Int8", "128"},                   {"Int8", "-129"},          {"UInt8", "256"},
-        {"UInt8", "-1"},                   {"Int16", "40000"},        {"UInt16", "65536"},
-        {"UInt32", "4294967296"},          {"UInt64", "-1"},          {"Int64", "9223372036854775808"},
-        {"Float32", "1e39"},               {"Float32", "-3.5e38"}};
+        {"Int32", "12475941756269202993"},
+        {"Int32", "2147483648"},
+        {"Int32", "-2147483649"},
+        {"Int8", "128"},
+        {"Int8", "-129"},
+        {"UInt8", "256"},
+        {"UInt8", "-1"},
+        {"Int16", "40000"},
+        {"UInt16", "65536"},
+        {"UInt32", "4294967296"},
+        {"UInt64", "-1"},
+        {"Int64", "9223372036854775808"},
+        {"Float32", "1e39"},
+        {"Float32", "-3.5e38"}};
     for (const auto& [type, value] : outside) {
         CAPTURE(type, value);
         const std::string path = vtu(type, value);
@@ -1142,11 +1151,19 @@ TEST_CASE("read_surface refuses ascii VTK XML values outside their type", "[io]"
                        Catch::Contains("outside the range of " + type));
     }
     const std::vector<std::pair<std::string, std::string>> inside = {
-        {"Int8", "-128"},  {"Int8", "127"},          {"UInt8", "255"},
-        {"Int16", "-32768"}, {"UInt16", "65535"},    {"Int32", "2147483647"},
-        {"Int32", "+2"},   {"UInt32", "4294967295"}, {"Int64", "-9223372036854775808"},
-        {"UInt64", "18446744073709551615"},          {"Float32", "3.4e38"},
-        {"Float32", "1e-50"}, {"Float64", "1e300"}};
+        {"Int8", "-128"},
+        {"Int8", "127"},
+        {"UInt8", "255"},
+        {"Int16", "-32768"},
+        {"UInt16", "65535"},
+        {"Int32", "2147483647"},
+        {"Int32", "+2"},
+        {"UInt32", "4294967295"},
+        {"Int64", "-9223372036854775808"},
+        {"UInt64", "18446744073709551615"},
+        {"Float32", "3.4e38"},
+        {"Float32", "1e-50"},
+        {"Float64", "1e300"}};
     for (const auto& [type, value] : inside) {
         CAPTURE(type, value);
         CHECK_NOTHROW(io::check_vtk_xml(vtu(type, value)));
