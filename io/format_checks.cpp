@@ -5,6 +5,7 @@
 #include <charconv>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <fstream>
 #include <iterator>
 #include <limits>
@@ -411,12 +412,16 @@ std::string_view attribute(vtkXMLDataElement* e, const char* name) {
 // parse (both found by fuzz_surface and fuzz_mesh).
 class XmlData {
 public:
-    XmlData(const std::string& path, vtkXMLDataParser* parser, std::int64_t appended)
+    /// `appended`: where the AppendedData starts (0: none); `appended_base64`: it is not
+    /// raw, which VTK reads as base64 whatever the encoding attribute says.
+    XmlData(const std::string& path, vtkXMLDataParser* parser, std::int64_t appended,
+            bool appended_base64)
         : path_(path),
           in_(path, std::ios::binary),
           parser_in_(path, std::ios::binary),
           parser_(parser),
-          appended_(appended) {
+          appended_(appended),
+          appended_base64_(appended_base64) {
         // The parser reads array data from a stream of its own (its file's is closed).
         parser->SetStream(&parser_in_);
         vtkXMLDataElement* root = parser->GetRootElement();
@@ -433,6 +438,7 @@ public:
             parser->SetCompressor(vtkSmartPointer<vtkLZMADataCompressor>::New());
         in_.seekg(0, std::ios::end);
         size_ = static_cast<std::uint64_t>(in_.tellg());
+        if (appended_ > 0 && appended_base64_) scan_appended_base64();
     }
 
     ~XmlData() { parser_->SetStream(nullptr); }
@@ -566,7 +572,7 @@ public:
         }
         if (compressed_) return std::nullopt;
         std::string data;
-        if (format == "appended") {
+        if (format == "appended" && !appended_base64_) {
             std::uint64_t offset = 0;
             if (appended_ <= 0 || !parse_number(attribute(e, "offset"), offset))
                 return std::nullopt;
@@ -580,7 +586,17 @@ public:
             if (!in_) return std::nullopt;
         } else {
             std::uint64_t at = 0;
-            if (!seek_inline_data(e, at)) return values;
+            if (format == "appended") {  // base64 at the offset, checked by appended_bytes
+                std::uint64_t offset = 0;
+                if (appended_ <= 0 || !parse_number(attribute(e, "offset"), offset) ||
+                    offset > appended_chars_)
+                    return std::nullopt;
+                in_.clear();
+                in_.seekg(
+                    static_cast<std::streamoff>(appended_ + static_cast<std::int64_t>(offset)));
+            } else if (!seek_inline_data(e, at)) {
+                return values;
+            }
             // Uncompressed, the header word and the data are one base64 stream.
             std::string chars;
             char c = 0;
@@ -664,6 +680,7 @@ private:
         if (!parse_number(text, offset))
             fail(e, "has offset \"" + std::string(text) + "\" (expected a whole number of bytes)");
         std::uint64_t at = static_cast<std::uint64_t>(appended_);
+        if (appended_base64_) return appended_base64_bytes(e, offset);
         if (offset > size_ - std::min(size_, at)) fail(e, "starts past the end of the file");
         at += offset;
         if (!compressed_) {
@@ -689,6 +706,105 @@ private:
             fail(e, "announces " + std::to_string(compressed) + " compressed bytes, the file has " +
                         std::to_string(size_ - at) + " after its header");
         return uncompressed(blocks, block_size, last_size);
+    }
+
+    // AppendedData that is not raw is read by VTK as one run of base64 from its '_' on, each
+    // array's streams at its offset in characters, with no white space skipped (a missing
+    // or misspelled encoding attribute counts: found by fuzz_mesh, "encodkng" made VTK read
+    // a base64 header announcing 4e9 blocks and allocate 16 GB). Its characters are checked
+    // once here: base64, '=' only as the padding that ends a group of four (a stream may
+    // start again after it), white space only at the end. One character per pass.
+    void scan_appended_base64() {
+        in_.clear();
+        in_.seekg(appended_);
+        std::uint64_t position = 0;
+        std::uint64_t padding = 0;
+        bool ended = false;  // white space seen: only white space may follow
+        char c = 0;
+        while (in_.get(c) && c != '<') {
+            const std::string where = "AppendedData: base64 character " + std::to_string(position);
+            if (std::isspace(static_cast<unsigned char>(c))) {
+                ended = true;
+                continue;
+            }
+            if (ended)
+                FM_THROW(InputError, in_quotes(path_) + ": " + where +
+                                         " follows white space inside the data (VTK reads "
+                                         "appended base64 without skipping any)");
+            if (c == '=') {
+                if (position % 4 < 2 || (position % 4 == 2 && padding > 0))
+                    FM_THROW(InputError, in_quotes(path_) + ": " + where +
+                                             " is '=', which is not padding at the end of a "
+                                             "group of four");
+                ++padding;
+            } else if (!is_base64(c)) {
+                const auto byte = static_cast<unsigned char>(c);
+                char code[8];
+                std::snprintf(code, sizeof code, "0x%02x", byte);
+                FM_THROW(InputError, in_quotes(path_) + ": " + where + " is " +
+                                         (std::isprint(byte) ? "'" + std::string(1, c) + "'"
+                                                             : std::string("byte ") + code) +
+                                         ", which is not base64 (the AppendedData element is "
+                                         "not encoding=\"raw\", so VTK reads it as base64)");
+            } else if (padding > 0) {
+                FM_THROW(InputError, in_quotes(path_) + ": " + where +
+                                         " follows '=' padding inside a group of four");
+            }
+            ++position;
+            if (position % 4 == 0) padding = 0;
+        }
+        if (position % 4 != 0)
+            FM_THROW(InputError, in_quotes(path_) +
+                                     ": AppendedData: the base64 data ends inside a group of four");
+        appended_chars_ = position;
+    }
+
+    // `count` characters of the appended base64 from character `from`, decoded; fails when
+    // the data has fewer.
+    std::string appended_base64(vtkXMLDataElement* e, std::uint64_t from, std::uint64_t count) {
+        if (from > appended_chars_ || appended_chars_ - from < count)
+            fail(e, "announces more base64 data than the AppendedData holds (" +
+                        std::to_string(appended_chars_) + " characters)");
+        std::string chars(count, '\0');
+        in_.clear();
+        in_.seekg(appended_ + static_cast<std::int64_t>(from));
+        in_.read(chars.data(), static_cast<std::streamsize>(count));
+        std::string bytes;
+        if (!in_ || !decode_base64(chars, bytes))
+            FM_THROW(InputError, in_quotes(path_) + ": read failed");
+        return bytes;
+    }
+
+    // The bytes of uncompressed data the base64 header at `offset` characters into the
+    // AppendedData declares, bounded by the characters there (4 per 3 bytes).
+    std::uint64_t appended_base64_bytes(vtkXMLDataElement* e, std::uint64_t offset) {
+        auto chars_for = [](std::uint64_t bytes) { return 4 * ((bytes + 2) / 3); };
+        if (offset > appended_chars_) fail(e, "starts past the end of the AppendedData");
+        const std::uint64_t left = appended_chars_ - offset;  // characters from the offset
+        if (!compressed_) {  // one stream: the header word, then the data
+            const std::uint64_t bytes = word_in(appended_base64(e, offset, chars_for(word_)), 0);
+            if (bytes > left / 4 * 3 || chars_for(word_ + bytes) > left)
+                fail(e, "announces " + std::to_string(bytes) + " bytes, the AppendedData has " +
+                            std::to_string(left) + " base64 characters after its offset");
+            return bytes;
+        }
+        // The header (three words and one per block) is a stream; the data follows.
+        const std::string head = appended_base64(e, offset, chars_for(3 * word_));
+        const std::uint64_t blocks = word_in(head, 0);
+        if (blocks > left / 4 * 3 / word_)
+            fail(e, "announces " + std::to_string(blocks) + " compressed blocks");
+        check_block_sizes(e, blocks, word_in(head, 1), word_in(head, 2));
+        const std::uint64_t header_chars = chars_for((3 + blocks) * word_);
+        const std::string header = appended_base64(e, offset, header_chars);
+        std::uint64_t compressed = 0;
+        for (std::uint64_t b = 0; b < blocks; ++b) {  // bounded by `blocks`, itself by the data
+            compressed += word_in(header, 3 + b);
+            if (compressed > left) fail(e, "announces more compressed bytes than the file has");
+        }
+        if (chars_for(compressed) > left - header_chars)
+            fail(e, "announces " + std::to_string(compressed) +
+                        " compressed bytes, more than the base64 after its header holds");
+        return uncompressed(blocks, word_in(head, 1), word_in(head, 2));
     }
 
     // The bytes of uncompressed data the base64 header inline in `e` declares.
@@ -924,6 +1040,8 @@ private:
     std::ifstream parser_in_;
     vtkXMLDataParser* parser_;
     std::int64_t appended_;
+    bool appended_base64_;
+    std::uint64_t appended_chars_ = 0;  // base64 characters of a non-raw AppendedData
     std::uint64_t size_ = 0;
     std::size_t word_ = 4;
     bool big_endian_ = false;
@@ -1118,13 +1236,15 @@ void check_vtk_xml(const std::string& path) {
     // by its element's name whatever the root's type says (VTK's reader does so: a root
     // type "UnstructuredGrof" passed its data to a SIGFPE, found by fuzz_mesh).
     std::int64_t appended = 0;
+    bool appended_base64 = false;
     for (int i = 0; i < root->GetNumberOfNestedElements(); ++i) {
         vtkXMLDataElement* e = root->GetNestedElement(i);
-        if (e->GetName() != nullptr && std::string_view(e->GetName()) == "AppendedData" &&
-            attribute(e, "encoding") == "raw")
+        if (e->GetName() != nullptr && std::string_view(e->GetName()) == "AppendedData") {
             appended = parser->GetAppendedDataPosition();
+            appended_base64 = attribute(e, "encoding") != "raw";  // as VTK's parser decides
+        }
     }
-    XmlData data(path, parser, appended);
+    XmlData data(path, parser, appended, appended_base64);
     stack = {root};
     while (!stack.empty()) {
         vtkXMLDataElement* element = stack.back();

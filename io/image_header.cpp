@@ -205,7 +205,8 @@ std::optional<NiftiFiles> nifti_files(const std::string& file) {
         files.data = file;
     } else {
         files.data = stem + (upper ? ".IMG" : ".img");
-        if (!fs::exists(files.data) && fs::exists(files.data + ".gz")) files.data += ".gz";
+        std::error_code ec;  // NAME.img.gz may be too long a name where NAME.hdr is not
+        if (!fs::exists(files.data, ec) && fs::exists(files.data + ".gz", ec)) files.data += ".gz";
     }
     return files;
 }

@@ -215,8 +215,9 @@ std::string label_table_beside(const std::string& image_path) {
                      [](const fs::path& a, const fs::path& b) {
                          return a.extension() == ".txt" && b.extension() != ".txt";
                      });
+    std::error_code ec;  // NAME.nii.txt may be too long a name where NAME.nii is not
     for (const auto& c : candidates)
-        if (fs::is_regular_file(c) && is_text_file(c.string())) return c.string();
+        if (fs::is_regular_file(c, ec) && is_text_file(c.string())) return c.string();
     return {};
 }
 

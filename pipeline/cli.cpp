@@ -219,7 +219,7 @@ std::string mesh_recipe_text(const Arguments& args, const std::filesystem::path&
         const std::string list = label_list_yaml(args.labels);
         if (!list.empty())
             text += "  labels: " + list + "\n";
-        else if (std::filesystem::is_regular_file(args.labels))
+        else if (std::error_code ec; std::filesystem::is_regular_file(args.labels, ec))
             text +=
                 "  label_names: " + quoted(fs::absolute(args.labels).lexically_normal().string()) +
                 "\n";

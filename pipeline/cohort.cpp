@@ -569,7 +569,8 @@ std::vector<std::string> subject_overrides(const CohortOptions& options,
 }
 
 bool is_existing_image(const std::string& image) {
-    return fs::exists(image) ||
+    std::error_code ec;  // a name too long to stat is reported as missing, not thrown
+    return fs::exists(image, ec) ||
            image.find('%') != std::string::npos;  // a slice pattern is checked by the run
 }
 
@@ -749,7 +750,8 @@ CohortResult run_cohort(const std::string& manifest_path, const CohortOptions& o
                  "-j " + std::to_string(options.jobs) + ": expected a whole number >= 1");
     if (options.recipe.empty()) FM_THROW(InputError, "cohort: needs a recipe (--recipe R.yaml)");
     const Manifest manifest = read_manifest(manifest_path);
-    const std::string recipe_path = fs::exists(options.recipe)
+    std::error_code ec;
+    const std::string recipe_path = fs::exists(options.recipe, ec)
                                         ? fs::absolute(options.recipe).lexically_normal().string()
                                         : options.recipe;
 

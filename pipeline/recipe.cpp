@@ -540,7 +540,9 @@ Recipe parse_recipe(const std::string& text, const std::string& path,
     // Every input is stat-ed before anything reads it: a named pipe, socket or device
     // would block the reader (issue 21). A slice pattern ("slice%03d.png") names no file
     // itself; the image reader checks the files it expands to.
-    if (!in.image.empty() && (fs::exists(in.image) || in.image.find('%') == std::string::npos))
+    // (error_code forms: a name too long for the file system is bad input, not a throw.)
+    std::error_code ec;
+    if (!in.image.empty() && (fs::exists(in.image, ec) || in.image.find('%') == std::string::npos))
         core::require_input_file(in.image, origin_for("input.image") + ": input.image: ", true);
     if (!in.surface.empty())
         core::require_input_file(in.surface, origin_for("input.surface") + ": input.surface: ");

@@ -142,14 +142,15 @@ std::string input_hash(const Recipe& recipe) {
     const std::string source =
         recipe.input.image.empty() ? recipe.input.surface : recipe.input.image;
     std::vector<fs::path> files;
-    if (fs::is_directory(source)) {
+    std::error_code ec;  // the reader has checked the input; a name it expands is not thrown
+    if (fs::is_directory(source, ec)) {
         for (const auto& entry : fs::directory_iterator(source))
             if (entry.is_regular_file()) files.push_back(entry.path());
-    } else if (fs::exists(source)) {
+    } else if (fs::exists(source, ec)) {
         files.push_back(source);
     } else {  // printf pattern: hash the folder it names
         const fs::path folder = fs::path(source).parent_path();
-        if (fs::is_directory(folder))
+        if (fs::is_directory(folder, ec))
             for (const auto& entry : fs::directory_iterator(folder))
                 if (entry.is_regular_file()) files.push_back(entry.path());
     }

@@ -1012,6 +1012,69 @@ TEST_CASE("read_surface refuses compressed VTK XML blocks of impossible sizes", 
     }
 }
 
+// Found by fuzz_mesh (issue 21): VTK reads AppendedData that is not encoding="raw" as
+// base64, whatever the attribute says; with "encodkng" the raw bytes were read as a header
+// of 4e9 blocks (16 GB allocated). What VTK writes with EncodeAppendedData is read.
+TEST_CASE("read_surface checks base64 appended VTK XML data as VTK reads it", "[io]") {
+    const std::string dir = frontmesh::fixtures::temp_dir("vtp_appended_base64");
+    const SurfaceNetwork net = two_region_network();
+    auto write = [&](const std::string& path, bool compressed, bool uint64) {
+        vtkNew<vtkXMLPolyDataWriter> writer;
+        writer->SetInputData(to_polydata(net));
+        writer->SetFileName(path.c_str());
+        if (uint64)
+            writer->SetHeaderTypeToUInt64();
+        else
+            writer->SetHeaderTypeToUInt32();
+        if (compressed)
+            writer->SetCompressorTypeToZLib();
+        else
+            writer->SetCompressorTypeToNone();
+        writer->SetDataModeToAppended();
+        writer->EncodeAppendedDataOn();
+        REQUIRE(writer->Write() == 1);
+        std::ifstream in(path, std::ios::binary);
+        return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+    };
+    for (const bool compressed : {false, true})
+        for (const bool uint64 : {false, true}) {
+            const std::string path =
+                dir + "/ok" + std::to_string(compressed) + std::to_string(uint64) + ".vtp";
+            const std::string text = write(path, compressed, uint64);
+            REQUIRE(text.find("encoding=\"base64\"") != std::string::npos);
+            CHECK(io::read_surface(path).face_count() == net.face_count());
+        }
+    const std::string text = write(dir + "/base.vtp", true, false);
+    const std::size_t data = text.find('_', text.find("<AppendedData")) + 1;
+    SECTION("a misspelled encoding is base64 too") {
+        std::string bad = text;
+        bad.replace(bad.find("encoding=\"base64\""), 8, "encodkng");
+        write_text(dir + "/spelled.vtp", bad);
+        CHECK(io::read_surface(dir + "/spelled.vtp").face_count() == net.face_count());
+        bad.replace(data, 4, std::string("\x01\x00\x00\xfd", 4));  // raw bytes there
+        write_text(dir + "/raw_bytes.vtp", bad);
+        CHECK_THAT(input_error_message([&] { io::read_surface(dir + "/raw_bytes.vtp"); }),
+                   Catch::Contains("raw_bytes.vtp") && Catch::Contains("byte 0x01") &&
+                       Catch::Contains("not base64"));
+    }
+    SECTION("a header of 4e9 blocks") {
+        std::string bad = text;
+        bad.replace(data, 8, "/////w==");  // base64 of ff ff ff ff: 4294967295 blocks
+        // The padding ends this stream; the rest of the header is a stream of its own.
+        write_text(dir + "/blocks.vtp", bad);
+        CHECK_THAT(
+            input_error_message([&] { io::read_surface(dir + "/blocks.vtp"); }),
+            Catch::Contains("blocks.vtp") && Catch::Contains("4294967295 compressed blocks"));
+    }
+    SECTION("white space inside the data") {
+        std::string bad = text;
+        bad.insert(data + 8, " ");
+        write_text(dir + "/space.vtp", bad);
+        CHECK_THAT(input_error_message([&] { io::read_surface(dir + "/space.vtp"); }),
+                   Catch::Contains("space.vtp") && Catch::Contains("white space"));
+    }
+}
+
 // Found by fuzz_surface and fuzz_mesh (issue 21): VTK's XML reader dereferences null when an
 // array holds fewer values than its Piece counts, an ascii value does not parse, base64 data
 // holds another character, or an array has no format.

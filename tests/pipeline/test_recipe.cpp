@@ -82,6 +82,14 @@ TEST_CASE("recipe errors: one line naming file, line and key", "[pipeline]") {
         CHECK_THAT(e, Catch::Contains("r.yaml:2") && Catch::Contains("input.image") &&
                           Catch::Contains("nowhere.nii.gz") && Catch::Contains("does not exist"));
     }
+    SECTION("an image name too long for the file system") {
+        // fs::exists threw filesystem_error (ENAMETOOLONG) here: an internal error, exit 1
+        // (found by fuzz_recipe).
+        const std::string name(300, 'a');
+        const auto e = error_of("input:\n  image: " + name + ".nii\n");
+        CHECK_THAT(e, Catch::Contains("r.yaml:2") && Catch::Contains("input.image") &&
+                          Catch::Contains("cannot be examined"));
+    }
     SECTION("empty label list") {
         const auto e = error_of("input:\n  image: ball.mha\n  labels: []\n");
         CHECK_THAT(e, Catch::Contains("input.labels") && Catch::Contains("empty"));
