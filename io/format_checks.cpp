@@ -1226,9 +1226,19 @@ void check_vtk_xml(const std::string& path) {
                                                               "Points",    "Cells",     "Verts",
                                                               "Lines",     "Strips",    "Polys"};
         const bool container = containers.count(name) > 0;
+        // Two arrays of one name in a PointData or CellData: VTK keeps one of them in its
+        // output, then reads the other's element into the array index past the end (null
+        // dereference in ReadArrayForCells, found by fuzz_surface).
+        const bool attributes = name == "PointData" || name == "CellData";
+        std::set<std::string_view> names;
         for (int i = 0; i < element->GetNumberOfNestedElements(); ++i) {
-            if (container) check_type(element->GetNestedElement(i));
-            stack.push_back(element->GetNestedElement(i));
+            vtkXMLDataElement* nested = element->GetNestedElement(i);
+            if (container) check_type(nested);
+            const std::string_view array = attribute(nested, "Name");
+            if (attributes && !array.empty() && !names.insert(array).second)
+                FM_THROW(InputError, in_quotes(path) + ": the " + std::string(name) +
+                                         " holds two arrays named '" + std::string(array) + "'");
+            stack.push_back(nested);
         }
     }
     // The headers of every array's binary data, wherever it is; then the data of each

@@ -662,6 +662,15 @@ RemeshResult remesh(const core::SurfaceNetwork& bg, const RemeshParams& params,
     const SizeField size = build_size_field(bg, sp, ctx);
     clock.lap("size_field");
     ctx.count("remesh.edge_length_mm", sp.edge_length);
+    // An explicit size is kept even above tetra.max_edge_length (README: "Element size
+    // inside the volume"); the tets on triangles wider than the cap are flat there.
+    if (params.edge_length > 0.0 && params.volume_edge_cap > 0.0 &&
+        params.edge_length > params.volume_edge_cap)
+        ctx.warn("remesh: remesh.edge_length " + format_ratio(params.edge_length) +
+                 " mm is above tetra.max_edge_length " + format_ratio(params.volume_edge_cap) +
+                 " mm: the tets on the surface cannot be smaller than its triangles and are "
+                 "flatter there; set remesh.edge_length to at most the cap, or to 0 (the "
+                 "automatic size, capped)");
 
     // Rounds: meshed again finer where a round fails, or with the places where a patch
     // stalled twice cut out of it (bounded by RetryPolicy::kRounds, cuts included; the last

@@ -1012,6 +1012,34 @@ TEST_CASE("read_surface refuses compressed VTK XML blocks of impossible sizes", 
     }
 }
 
+// Found by fuzz_surface (issue 21): with two CellData arrays of one name VTK's PolyData
+// reader dereferenced null (it keeps one array and reads the other into an index past the
+// end). Two arrays of one name in a PointData or CellData are refused; unnamed ones are not.
+TEST_CASE("read_surface refuses two VTK XML arrays of one name", "[io]") {
+    const std::string dir = frontmesh::fixtures::temp_dir("vtp_duplicate_names");
+    auto vtp = [](const std::string& second_name) {
+        return "<?xml version=\"1.0\"?>\n<VTKFile type=\"PolyData\" version=\"1.0\" "
+               "byte_order=\"LittleEndian\" header_type=\"UInt64\"><PolyData><Piece "
+               "NumberOfPoints=\"4\" NumberOfPolys=\"1\"><Points><DataArray type=\"Float32\" "
+               "NumberOfComponents=\"3\" format=\"ascii\">0 0 0 1 0 0 0 1 0 0 0 1</DataArray>"
+               "</Points><Polys><DataArray type=\"Int64\" Name=\"connectivity\" "
+               "format=\"ascii\">0 1 2</DataArray><DataArray type=\"Int64\" Name=\"offsets\" "
+               "format=\"ascii\">3</DataArray></Polys><CellData><DataArray type=\"Int32\" "
+               "Name=\"region_in\" format=\"ascii\">1</DataArray><DataArray type=\"Int32\" "
+               "Name=\"" +
+               second_name +
+               "\" format=\"ascii\">0</DataArray></CellData></Piece></PolyData></VTKFile>\n";
+    };
+    write_text(dir + "/twice.vtp", vtp("region_in"));
+    CHECK_THAT(input_error_message([&] { io::check_vtk_xml(dir + "/twice.vtp"); }),
+               Catch::Contains("twice.vtp") &&
+                   Catch::Contains("CellData holds two arrays named 'region_in'"));
+    CHECK_THAT(input_error_message([&] { io::read_surface(dir + "/twice.vtp"); }),
+               Catch::Contains("two arrays named 'region_in'"));
+    write_text(dir + "/distinct.vtp", vtp("region_out"));
+    CHECK_NOTHROW(io::check_vtk_xml(dir + "/distinct.vtp"));
+}
+
 // Found by fuzz_mesh (issue 21): VTK reads AppendedData that is not encoding="raw" as
 // base64, whatever the attribute says; with "encodkng" the raw bytes were read as a header
 // of 4e9 blocks (16 GB allocated). What VTK writes with EncodeAppendedData is read.
