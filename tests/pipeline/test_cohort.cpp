@@ -283,7 +283,7 @@ TEST_CASE("cohort: a tetrahedral result fills the mesh columns", "[pipeline]") {
     CHECK_THAT(slurp(fs::path(dir) / "out/cohort-summary.json"), Catch::Contains("\"tets\": "));
 }
 
-TEST_CASE("cohort: -j 2 gives the rows of -j 1", "[pipeline][asan-slow]") {
+TEST_CASE("cohort: -j 2 gives the rows of -j 1", "[pipeline]") {
     const std::string dir = cohort_dir("cohort_jobs");
     write_file(dir + "/manifest.csv", kManifest);
     // The surface stages are enough to compare the two schedules (--until reaches every subject).

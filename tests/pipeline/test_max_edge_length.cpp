@@ -86,7 +86,7 @@ Meshed mesh_sphere(double cap) {
 }  // namespace
 
 TEST_CASE("tetra.max_edge_length caps the interior edges of tetra and refine",
-          "[pipeline][asan-slow][max_edge_length]") {
+          "[pipeline][max_edge_length]") {
     const Meshed free = mesh_sphere(0.0);
     const double cap = 3.5;  // above every surface edge: the cap holds everywhere
     const InteriorEdges free_tetra = interior_edges(free.tetra, cap);
@@ -130,8 +130,7 @@ TEST_CASE("tetra.max_edge_length caps the interior edges of tetra and refine",
     CHECK(check.quality.min_dihedral_deg > 5.0);
 }
 
-TEST_CASE("tetra.max_edge_length from a recipe reaches mesh.vtu",
-          "[pipeline][asan-slow][max_edge_length]") {
+TEST_CASE("tetra.max_edge_length from a recipe reaches mesh.vtu", "[pipeline][max_edge_length]") {
     const std::string dir = fixtures::temp_dir("max_edge_length_run");
     fixtures::write_metaimage(fixtures::sphere_image(24, 9.0), dir + "/ball.mha");
     write_file(dir + "/r.yaml",

@@ -17,7 +17,7 @@ using frontmesh::testing::slurp;
 namespace fs = std::filesystem;
 
 TEST_CASE("frontmesh mesh: image to mesh with a written recipe that re-runs the same",
-          "[pipeline][asan-slow][mesh]") {
+          "[pipeline][mesh]") {
     const std::string dir = fixtures::temp_dir("mesh_command");
     fixtures::write_metaimage(fixtures::nested_ellipsoids_image(1.0, 0.6), dir + "/phantom.mha");
     const auto r = run_frontmesh(

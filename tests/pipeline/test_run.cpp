@@ -201,8 +201,7 @@ TEST_CASE("AAL atlas: 116 closed, oriented regions through the command line",
             Catch::Contains("\"frame\": \"ras\""));
 }
 
-TEST_CASE("checkpoints are identical byte for byte across runs and thread counts",
-          "[pipeline][asan-slow]") {
+TEST_CASE("checkpoints are identical byte for byte across runs and thread counts", "[pipeline]") {
     const std::string dir = phantom_run_dir("run_determinism");
     REQUIRE(run_frontmesh("run recipe.yaml --quiet --threads 1", dir).exit_code == 0);
     std::vector<std::string> first;

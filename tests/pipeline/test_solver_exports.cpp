@@ -160,7 +160,7 @@ std::map<std::string, std::string> physical_names(const fs::path& msh) {
 }  // namespace
 
 TEST_CASE("CalculiX solves the .inp of a single-region phantom unchanged",
-          "[pipeline][asan-slow][export][ccx]") {
+          "[pipeline][export][ccx]") {
     if (shell("command -v ccx").exit_code != 0) {
         FM_SKIP("ccx not installed (scripts/install-deps.sh installs calculix-ccx)");
     }
@@ -185,7 +185,7 @@ TEST_CASE("CalculiX solves the .inp of a single-region phantom unchanged",
 }
 
 TEST_CASE("tag numbers do not change when a run meshes a subset of the labels",
-          "[pipeline][asan-slow][export]") {
+          "[pipeline][export]") {
     const std::string dir = fixtures::temp_dir("solver_tags_subset");
     fixtures::write_metaimage(fixtures::nested_ellipsoids_image(1.0, 0.6), dir + "/phantom.mha");
     write_file(dir + "/names.txt", "1 Brain\n2 CSF\n3 Skull\n");
@@ -238,7 +238,7 @@ TEST_CASE("FEniCSx reads the .msh with the same tags in two subjects and solves 
 }
 
 TEST_CASE("CalculiX solves the .inp of a three-region phantom unchanged",
-          "[pipeline][asan-slow][export][ccx]") {
+          "[pipeline][export][ccx]") {
     if (shell("command -v ccx").exit_code != 0) {
         FM_SKIP("ccx not installed (scripts/install-deps.sh installs calculix-ccx)");
     }
@@ -305,7 +305,7 @@ std::string tie_lines(const fs::path& inp, long long tag) {
 }  // namespace
 
 TEST_CASE("a split interface shares no node and keeps volumes and CalculiX solves it tied",
-          "[pipeline][asan-slow][export][ccx][split]") {
+          "[pipeline][export][ccx][split]") {
     const std::string dir = fixtures::temp_dir("solver_ccx_split");
     fixtures::write_metaimage(fixtures::nested_ellipsoids_image(1.0, 0.6), dir + "/phantom.mha");
     write_file(dir + "/names.txt", "1 Brain\n2 CSF\n3 Skull\n");
