@@ -721,34 +721,35 @@ private:
         std::uint64_t padding = 0;
         bool ended = false;  // white space seen: only white space may follow
         char c = 0;
+        // The message is made only on failure: this runs once per character of the data.
+        auto fail_at = [&](const std::string& what) {
+            FM_THROW(InputError, in_quotes(path_) + ": AppendedData: base64 character " +
+                                     std::to_string(position) + " " + what);
+        };
         while (in_.get(c) && c != '<') {
-            const std::string where = "AppendedData: base64 character " + std::to_string(position);
             if (std::isspace(static_cast<unsigned char>(c))) {
                 ended = true;
                 continue;
             }
             if (ended)
-                FM_THROW(InputError, in_quotes(path_) + ": " + where +
-                                         " follows white space inside the data (VTK reads "
-                                         "appended base64 without skipping any)");
+                fail_at(
+                    "follows white space inside the data (VTK reads appended base64 "
+                    "without skipping any)");
             if (c == '=') {
                 if (position % 4 < 2 || (position % 4 == 2 && padding > 0))
-                    FM_THROW(InputError, in_quotes(path_) + ": " + where +
-                                             " is '=', which is not padding at the end of a "
-                                             "group of four");
+                    fail_at("is '=', which is not padding at the end of a group of four");
                 ++padding;
             } else if (!is_base64(c)) {
                 const auto byte = static_cast<unsigned char>(c);
                 char code[8];
                 std::snprintf(code, sizeof code, "0x%02x", byte);
-                FM_THROW(InputError, in_quotes(path_) + ": " + where + " is " +
-                                         (std::isprint(byte) ? "'" + std::string(1, c) + "'"
-                                                             : std::string("byte ") + code) +
-                                         ", which is not base64 (the AppendedData element is "
-                                         "not encoding=\"raw\", so VTK reads it as base64)");
+                fail_at("is " +
+                        (std::isprint(byte) ? "'" + std::string(1, c) + "'"
+                                            : std::string("byte ") + code) +
+                        ", which is not base64 (the AppendedData element is not "
+                        "encoding=\"raw\", so VTK reads it as base64)");
             } else if (padding > 0) {
-                FM_THROW(InputError, in_quotes(path_) + ": " + where +
-                                         " follows '=' padding inside a group of four");
+                fail_at("follows '=' padding inside a group of four");
             }
             ++position;
             if (position % 4 == 0) padding = 0;
