@@ -85,6 +85,12 @@ fs::path check_parts(const fs::path& dir, const Place& place) {
         prefix /= part;
         std::error_code ec;
         const fs::file_status status = fs::status(prefix, ec);
+        // A link whose target is missing: create_directories would fail on it (exit 1, found
+        // by the malformed-input campaign, issue 21), and making its target would write
+        // wherever it points.
+        if (!fs::exists(status) && fs::is_symlink(fs::symlink_status(prefix, ec)))
+            place.fail("cannot be a folder: '" + prefix.string() + "' is a symbolic link to '" +
+                       fs::read_symlink(prefix, ec).string() + "', which does not exist");
         if (!fs::exists(status)) break;
         if (!fs::is_directory(status)) {
             if (prefix == dir) place.fail("is " + core::file_kind(status) + ", not a folder");
@@ -132,8 +138,19 @@ void check_contents(const Recipe& recipe, const fs::path& dir, bool foreign_ok,
         place.fail("cannot be used: '" + path.string() + "' is " + core::file_kind(status) +
                    ", not " + wanted);
     };
+    // A symbolic link where frontmesh writes would take the writes out of the folder (the
+    // log appended to the file it names, checkpoints written into the folder it names; found
+    // by the malformed-input campaign, issue 21).
+    auto refuse_link = [&](const fs::path& path) {
+        std::error_code link_ec;
+        if (fs::is_symlink(fs::symlink_status(path, link_ec)))
+            place.fail("cannot be used: '" + path.string() + "' is a symbolic link (to '" +
+                       fs::read_symlink(path, link_ec).string() +
+                       "'); frontmesh writes there and would follow it out of the folder");
+    };
     std::error_code ec;
     for (const std::string& name : result_names(recipe)) {
+        refuse_link(dir / name);
         const fs::file_status status = fs::status(dir / name, ec);
         if (fs::exists(status) && !fs::is_regular_file(status))
             refuse(dir / name, status, "a file");
@@ -145,11 +162,13 @@ void check_contents(const Recipe& recipe, const fs::path& dir, bool foreign_ok,
             refuse(entry.path(), status, "a file or a folder");
     }
     for (const char* sub : {"checkpoints", "diagnostics"}) {
+        refuse_link(dir / sub);
         const fs::file_status status = fs::status(dir / sub, ec);
         if (!fs::exists(status)) continue;
         if (!fs::is_directory(status)) refuse(dir / sub, status, "a folder");
         // Only the run's own files live there: bounded by the folder's entries.
         for (const auto& entry : fs::directory_iterator(dir / sub, ec)) {
+            refuse_link(entry.path());
             const fs::file_status inner = entry.status(ec);
             if (fs::exists(inner) && !fs::is_regular_file(inner))
                 refuse(entry.path(), inner, "a file");

@@ -13,6 +13,8 @@
 #include <utility>
 #include <variant>
 
+#include <yaml-cpp/anchor.h>
+#include <yaml-cpp/eventhandler.h>
 #include <yaml-cpp/yaml.h>
 
 #include "io/export.h"
@@ -417,6 +419,107 @@ std::string origin_of(const std::string& path, const YAML::Node& node) {
     return mark.line >= 0 ? path + ":" + std::to_string(mark.line + 1) : path;
 }
 
+// A recipe is a few dozen nodes. Before yaml-cpp builds the tree, its events are counted with
+// every alias expanded (each anchor's size remembered, so the count is linear in the text): an
+// alias inside the node it names (`&a [*a]`, a cycle: yaml-cpp's tree then loops and the walks
+// below never end or overflow the stack), a tree expanded beyond kMaxYamlNodes (an "alias
+// bomb", ten anchors of ten aliases each, 10^10 nodes from 600 bytes) or nested deeper than
+// kMaxYamlDepth is refused before any walk (found by the malformed-input campaign, issue 21).
+constexpr std::size_t kMaxYamlNodes = 100000;
+constexpr std::size_t kMaxYamlDepth = 64;
+
+class YamlSizeCheck : public YAML::EventHandler {
+public:
+    /// `with_lines` false for a --set value (one line: its line number says nothing).
+    YamlSizeCheck(std::string origin, bool with_lines)
+        : origin_(std::move(origin)), with_lines_(with_lines) {}
+    void OnDocumentStart(const YAML::Mark&) override {}
+    void OnDocumentEnd() override {}
+    void OnNull(const YAML::Mark& mark, YAML::anchor_t anchor) override { leaf(mark, anchor); }
+    void OnScalar(const YAML::Mark& mark, const std::string&, YAML::anchor_t anchor,
+                  const std::string&) override {
+        leaf(mark, anchor);
+    }
+    void OnAlias(const YAML::Mark& mark, YAML::anchor_t anchor) override {
+        for (const Frame& f : open_)
+            if (f.anchor == anchor && anchor != YAML::NullAnchor)
+                fail(mark, "an alias inside the node its anchor names (a cycle)");
+        const auto it = sizes_.find(anchor);
+        add(mark, it == sizes_.end() ? 1 : it->second);
+    }
+    void OnSequenceStart(const YAML::Mark& mark, const std::string&, YAML::anchor_t anchor,
+                         YAML::EmitterStyle::value) override {
+        open(mark, anchor);
+    }
+    void OnSequenceEnd() override { close(); }
+    void OnMapStart(const YAML::Mark& mark, const std::string&, YAML::anchor_t anchor,
+                    YAML::EmitterStyle::value) override {
+        open(mark, anchor);
+    }
+    void OnMapEnd() override { close(); }
+
+private:
+    struct Frame {
+        YAML::anchor_t anchor;
+        std::size_t nodes;  // the expanded nodes of this container so far, itself included
+    };
+    [[noreturn]] void fail(const YAML::Mark& mark, const std::string& what) const {
+        FM_THROW(InputError,
+                 (with_lines_ && mark.line >= 0 ? origin_ + ":" + std::to_string(mark.line + 1)
+                                                : origin_) +
+                     ": " + what);
+    }
+    // Every node is added to total_ once, when it starts (an alias: its anchor's whole size),
+    // and to the count of the container holding it; so total_ bounds every count, and no sum
+    // exceeds 2 kMaxYamlNodes before it is refused.
+    void add(const YAML::Mark& mark, std::size_t nodes) {
+        total_ += nodes;
+        if (total_ > kMaxYamlNodes)
+            fail(mark, "more than " + std::to_string(kMaxYamlNodes) +
+                           " values with its aliases expanded; a recipe needs far fewer");
+        if (!open_.empty()) open_.back().nodes += nodes;
+    }
+    void leaf(const YAML::Mark& mark, YAML::anchor_t anchor) {
+        if (anchor != YAML::NullAnchor) sizes_[anchor] = 1;
+        add(mark, 1);
+    }
+    void open(const YAML::Mark& mark, YAML::anchor_t anchor) {
+        if (open_.size() >= kMaxYamlDepth)
+            fail(mark, "nested more than " + std::to_string(kMaxYamlDepth) +
+                           " levels deep; a recipe needs three");
+        add(mark, 1);
+        open_.push_back({anchor, 1});
+    }
+    void close() {
+        const Frame f = open_.back();
+        open_.pop_back();
+        if (f.anchor != YAML::NullAnchor) sizes_[f.anchor] = f.nodes;
+        if (!open_.empty()) open_.back().nodes += f.nodes - 1;  // its own 1 went in at open
+    }
+    std::string origin_;
+    bool with_lines_;
+    std::vector<Frame> open_;
+    std::map<YAML::anchor_t, std::size_t> sizes_;
+    std::size_t total_ = 0;
+};
+
+// YAML::Load after the size check above. `origin` the recipe's path (errors name its line)
+// or "--set KEY".
+YAML::Node load_yaml(const std::string& text, const std::string& origin, bool with_lines) {
+    try {
+        std::istringstream in(text);
+        YAML::Parser parser(in);
+        YamlSizeCheck check(origin, with_lines);
+        while (parser.HandleNextDocument(check)) {
+        }
+        return YAML::Load(text);
+    } catch (const YAML::Exception& e) {
+        if (!with_lines) FM_THROW(InputError, origin + ": cannot read the value: " + e.msg);
+        FM_THROW(InputError,
+                 origin + ":" + std::to_string(e.mark.line + 1) + ": YAML syntax error: " + e.msg);
+    }
+}
+
 // yaml-cpp keeps every pair of a mapping, so a key given twice would silently take the
 // last value: refuse it, naming both lines. `path` "--set": a value given on the command line.
 void reject_duplicate_keys(const YAML::Node& node, const std::string& path,
@@ -472,12 +575,7 @@ void apply_override(const std::string& item, Recipe& recipe) {
     if (eq == std::string::npos || eq == 0)
         FM_THROW(InputError, "--set " + item + ": expected key.path=value");
     const std::string key = item.substr(0, eq);
-    YAML::Node value;
-    try {
-        value = YAML::Load(item.substr(eq + 1));
-    } catch (const YAML::Exception& e) {
-        FM_THROW(InputError, "--set " + key + ": cannot read the value: " + e.msg);
-    }
+    YAML::Node value = load_yaml(item.substr(eq + 1), "--set " + key, false);
     reject_duplicate_keys(value, "--set", key + ".");
     // Relative paths given on the command line are relative to the current folder.
     if ((key == "input.image" || key == "input.surface" || key == "input.label_names") &&
@@ -508,13 +606,7 @@ Recipe parse_recipe(const std::string& text, const std::string& path,
         record_value(recipe, spec.path, value);
     }
 
-    YAML::Node root;
-    try {
-        root = YAML::Load(text);
-    } catch (const YAML::Exception& e) {
-        FM_THROW(InputError,
-                 path + ":" + std::to_string(e.mark.line + 1) + ": YAML syntax error: " + e.msg);
-    }
+    YAML::Node root = load_yaml(text, path, true);  // not const: root[k] of a missing k is null
     if (!root.IsNull() && !root.IsMap())
         FM_THROW(InputError, path + ": the recipe must be a mapping of sections");
     reject_duplicate_keys(root, path, "");

@@ -190,6 +190,37 @@ TEST_CASE("a path over PATH_MAX, or a result name taken by a folder or pipe, is 
         REQUIRE(mkfifo((dir + "/used/checkpoints/01-extract.vtu").c_str(), 0600) == 0);
         expect_refused_both(dir, "--set output.dir=used", "01-extract.vtu' is a named pipe");
     }
+    // Found by the malformed-input campaign (issue 21): the log was appended to the file a
+    // link named, the checkpoints written into the folder a link named, and a link to a
+    // missing folder as output.dir was an internal error.
+    fs::create_directories(dir + "/outside");
+    write_file(dir + "/outside/precious.txt", "mine\n");
+    SECTION("frontmesh.log is a link out of the folder") {
+        fs::create_symlink("../outside/precious.txt", dir + "/used/frontmesh.log");
+        expect_refused_both(dir, "--set output.dir=used", "frontmesh.log' is a symbolic link");
+    }
+    SECTION("checkpoints is a link out of the folder") {
+        fs::remove_all(dir + "/used/checkpoints");
+        fs::create_symlink("../outside", dir + "/used/checkpoints");
+        expect_refused_both(dir, "--set output.dir=used", "checkpoints' is a symbolic link");
+    }
+    SECTION("a checkpoint is a link") {
+        fs::create_symlink("../../outside/precious.txt", dir + "/used/checkpoints/02-repair.vtu");
+        expect_refused_both(dir, "--set output.dir=used", "02-repair.vtu' is a symbolic link");
+    }
+    SECTION("output.dir is a link to a folder that does not exist") {
+        fs::create_symlink("gone/deeper", dir + "/dangling");
+        expect_refused_both(dir, "--set output.dir=dangling",
+                            "is a symbolic link to 'gone/deeper', which does not exist");
+    }
+    SECTION("output.dir is a link to a folder: it is used") {
+        fs::create_directories(dir + "/real");
+        fs::create_symlink("real", dir + "/linked");
+        const auto r = run_frontmesh("validate recipe.yaml --quiet --set output.dir=linked", dir);
+        INFO(r.err);
+        CHECK(r.exit_code == 0);
+    }
+    CHECK(fs::file_size(dir + "/outside/precious.txt") == 5);
 }
 
 TEST_CASE("a named pipe or folder given as an input is refused without opening it", "[pipeline]") {

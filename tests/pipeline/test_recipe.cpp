@@ -167,6 +167,29 @@ TEST_CASE("recipe errors: one line naming file, line and key", "[pipeline]") {
         CHECK_THAT(error_of("input:\n  ? [image]\n  : ball.mha\n"),
                    Catch::Contains("r.yaml:2") && Catch::Contains("a key must be a plain name"));
     }
+    SECTION("aliases: a cycle, a bomb, deep nesting") {
+        // Found by the malformed-input campaign (issue 21): `&a [*a]` crashed (SIGSEGV) and
+        // nine anchors of ten aliases each did not end.
+        CHECK_THAT(error_of("input:\n  image: ball.mha\nextra: &a [*a]\n"),
+                   Catch::Contains("r.yaml:3") && Catch::Contains("a cycle"));
+        std::string bomb = "[x, x, x, x, x, x, x, x, x, x]";
+        for (int level = 0; level < 9; ++level) {
+            const std::string a = "a" + std::to_string(level);
+            std::string next = "[&" + a + " " + bomb;
+            for (int i = 0; i < 9; ++i) next += ", *" + a;
+            bomb = next + "]";
+        }
+        CHECK_THAT(error_of("input:\n  image: ball.mha\n  labels: " + bomb + "\n"),
+                   Catch::Contains("r.yaml:3") && Catch::Contains("more than 100000 values"));
+        CHECK_THAT(error_of("input:\n  image: ball.mha\n", {"input.labels=" + bomb}),
+                   Catch::Contains("--set input.labels: more than 100000 values"));
+        CHECK_THAT(error_of("input:\n  image: ball.mha\nextra: " + std::string(100, '[') +
+                            std::string(100, ']') + "\n"),
+                   Catch::Contains("r.yaml:3") && Catch::Contains("nested more than 64"));
+        // An anchor used as intended is still read.
+        CHECK(error_of("input:\n  image: ball.mha\nremesh:\n  edge_length: &h 2\ntetra:\n"
+                       "  max_edge_length: *h\n") == "");
+    }
     SECTION("a valid recipe has no error") { CHECK(error_of("input:\n  image: ball.mha\n") == ""); }
 }
 
