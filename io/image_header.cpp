@@ -11,6 +11,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <limits>
 #include <map>
 #include <memory>
 #include <optional>
@@ -345,7 +346,9 @@ std::uint64_t stream_bytes(const std::string& file, std::uint64_t limit, std::ui
 /// Bytes a zlib or gzip stream (detected from its first bytes) that starts at byte `offset`
 /// of `file` inflates to, counting at most `limit`; a damaged stream counts up to the damage.
 /// MetaImage CompressedData is zlib, NRRD "encoding: gzip" is gzip; both may follow a header.
-std::uint64_t inflated_bytes(const std::string& file, std::uint64_t offset, std::uint64_t limit) {
+/// With `in_limit`, only that many compressed bytes are read (MetaIO reads CompressedDataSize).
+std::uint64_t inflated_bytes(const std::string& file, std::uint64_t offset, std::uint64_t limit,
+                             std::uint64_t in_limit = std::numeric_limits<std::uint64_t>::max()) {
     std::ifstream in(file, std::ios::binary);
     if (!in) return 0;
     in.seekg(static_cast<std::streamoff>(offset));
@@ -359,10 +362,12 @@ std::uint64_t inflated_bytes(const std::string& file, std::uint64_t offset, std:
     // returns an error; input is a finite file and output stops at `limit`.
     while (produced < limit && status == Z_OK) {
         if (z.avail_in == 0) {
-            in.read(reinterpret_cast<char*>(input.data()),
-                    static_cast<std::streamsize>(input.size()));
+            const auto want = std::min<std::uint64_t>(input.size(), in_limit);
+            if (want == 0) break;
+            in.read(reinterpret_cast<char*>(input.data()), static_cast<std::streamsize>(want));
             const auto got = in.gcount();
             if (got <= 0) break;
+            in_limit -= static_cast<std::uint64_t>(got);
             z.next_in = input.data();
             z.avail_in = static_cast<uInt>(got);
         }
@@ -589,6 +594,65 @@ bool plain_decimal(const std::string& token) {
         if (digits() == 0) return false;
     }
     return i == n;
+}
+
+/// The range of a MetaIO integer ElementType's values; nullopt for the float types.
+std::optional<std::pair<double, double>> meta_integer_range(const std::string& type) {
+    const std::string base = type.substr(
+        0, type.rfind("_ARRAY") == std::string::npos ? type.size() : type.rfind("_ARRAY"));
+    static const std::map<std::string, std::pair<double, double>> ranges = {
+        {"MET_ASCII_CHAR", {-128, 127}},
+        {"MET_CHAR", {-128, 127}},
+        {"MET_UCHAR", {0, 255}},
+        {"MET_SHORT", {-32768, 32767}},
+        {"MET_USHORT", {0, 65535}},
+        {"MET_INT", {-2147483648.0, 2147483647.0}},
+        {"MET_UINT", {0, 4294967295.0}},
+        {"MET_LONG", {-2147483648.0, 2147483647.0}},
+        {"MET_ULONG", {0, 4294967295.0}},
+        {"MET_LONG_LONG", {-9.2233720368547758e18, 9.2233720368547758e18}},
+        {"MET_ULONG_LONG", {0, 1.8446744073709552e19}}};
+    const auto it = ranges.find(base);
+    if (it == ranges.end()) return std::nullopt;
+    return it->second;
+}
+
+/// MetaImage text voxels (BinaryData = False), as MetaIO reads them (`>>` into a double, then
+/// a cast to the voxel type): each of the first voxels a plain decimal number within the
+/// type's range. MetaIO stops at the first token it cannot read and leaves the rest of the
+/// image as it was allocated: garbage labels (found by the malformed-input campaign, issue
+/// 21). Bounded by the data's size (text images are small: two bytes a voxel at least).
+void check_meta_text_values(const std::string& path, const std::string& what,
+                            const std::string& data_file, std::uint64_t start,
+                            const std::vector<std::uint64_t>& counted, const std::string& type) {
+    const std::uint64_t voxels = data_bytes(counted, 1);
+    const auto range = meta_integer_range(type);
+    std::ifstream in(data_file, std::ios::binary);
+    in.seekg(static_cast<std::streamoff>(start));
+    std::uint64_t index = 0;
+    auto where = [&] {
+        std::string text = "text voxel " + std::to_string(index);
+        if (counted.size() >= 3) {
+            const std::uint64_t i = index % counted[0], j = index / counted[0] % counted[1],
+                                k = index / counted[0] / counted[1];
+            text += " (" + std::to_string(i) + ", " + std::to_string(j) + ", " + std::to_string(k) +
+                    ")";
+        }
+        return text;
+    };
+    for (std::string token; index < voxels && in >> token; ++index) {
+        if (!plain_decimal(token))
+            FM_THROW(InputError, image_prefix(path) + what + where() + " is '" +
+                                     token.substr(0, 40) + "', not a number");
+        const double value = std::strtod(token.c_str(), nullptr);
+        if (!std::isfinite(value) || (range && (value < range->first || value > range->second)))
+            FM_THROW(InputError, image_prefix(path) + what + where() + " is " +
+                                     token.substr(0, 40) + ", outside the range of " + type);
+    }
+    if (index < voxels)
+        FM_THROW(InputError, image_prefix(path) + what + "is truncated: it holds " +
+                                 std::to_string(index) + " of the " + std::to_string(voxels) +
+                                 " text voxels its MetaImage header announces");
 }
 
 /// Whitespace-separated numbers of a header value; nullopt when one token is not a number
@@ -838,6 +902,20 @@ void check_metaimage(const std::string& path, const std::string& file, const Hea
                     path, "MetaImage header: " + spacing->first + " value " + std::to_string(d + 1),
                     values[d]);
     }
+    // MetaIO reads these names as one field; given twice it misreads the header (a NaN in
+    // the second went unchecked, and MetaIO printed four lines of its own).
+    auto one_of = [&](std::initializer_list<const char*> names) {
+        const char* first = nullptr;
+        for (const char* name : names)
+            if (keys.count(name)) {
+                if (first != nullptr)
+                    header.fail(std::string(first) + " and " + name +
+                                " are two names of one field; keep one");
+                first = name;
+            }
+    };
+    one_of({"Offset", "Position", "Origin"});
+    one_of({"TransformMatrix", "Rotation", "Orientation"});
     if (const auto origin = value_of({"Offset", "Position", "Origin"})) {
         const auto values = header.numbers(origin->first, origin->second, ndims);
         header.require_finite(origin->first, values);
@@ -895,6 +973,7 @@ void check_metaimage(const std::string& path, const std::string& file, const Hea
             file_size_of(data_file) - std::min(start, file_size_of(data_file));
         check_data_size(path, what, present, 2 * data_bytes(counted, 1) - 1,
                         "of text that its MetaImage header announces at least " + announced);
+        check_meta_text_values(path, what, data_file, start, counted, type);
         return;
     }
     if (compressed) {
@@ -904,11 +983,19 @@ void check_metaimage(const std::string& path, const std::string& file, const Hea
             header.fail(
                 "CompressedDataSize is missing; compressed data in the file itself needs "
                 "it (MetaIO reads it as garbage without)");
+        std::uint64_t compressed_size = std::numeric_limits<std::uint64_t>::max();
         if (const auto size = value_of({"CompressedDataSize"}))
-            header.integer(size->first, size->second, 1, std::int64_t{1} << 50);
-        // MetaIO allocates the whole image before it inflates: inflate once here to count.
-        check_data_size(path, what, inflated_bytes(data_file, start, bytes), bytes,
-                        "that its MetaImage header announces once decompressed " + announced);
+            compressed_size = static_cast<std::uint64_t>(
+                header.integer(size->first, size->second, 1, std::int64_t{1} << 50));
+        // MetaIO allocates the whole image before it inflates: inflate once here to count,
+        // from the CompressedDataSize bytes MetaIO reads (fewer than the stream's: the voxels
+        // past them were garbage labels; found by the malformed-input campaign, issue 21).
+        check_data_size(
+            path, what, inflated_bytes(data_file, start, bytes, compressed_size), bytes,
+            "that its MetaImage header announces once decompressed " + announced +
+                (compressed_size != std::numeric_limits<std::uint64_t>::max()
+                     ? " from its CompressedDataSize " + std::to_string(compressed_size) + " bytes"
+                     : std::string()));
         return;
     }
     check_data_size(

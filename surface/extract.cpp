@@ -954,6 +954,25 @@ core::SurfaceNetwork extract(const core::LabelImage& image, const ExtractParams&
             "input.image: '" + image.source +
                 "' has no labelled (non-zero) voxel; for a grayscale image set input.threshold");
     std::set<Label> chosen(params.labels.begin(), params.labels.end());
+    if (chosen.empty() && *present.begin() < 0) {
+        // A label is positive: with input.labels: all a negative value became a region whose
+        // faces had region_out -2, refused by repair naming no file or voxel (found by the
+        // malformed-input campaign, issue 21). Picked labels leave it outside, as any other.
+        const auto at = static_cast<std::size_t>(
+            std::find_if(image.labels.begin(), image.labels.end(), [](Label l) { return l < 0; }) -
+            image.labels.begin());
+        const auto nx = static_cast<std::size_t>(image.dims[0]),
+                   ny = static_cast<std::size_t>(image.dims[1]);
+        // The reader pads the image by one voxel (label_image.h): the file's own index.
+        const std::string voxel = "(" + std::to_string(at % nx - 1) + ", " +
+                                  std::to_string(at / nx % ny - 1) + ", " +
+                                  std::to_string(at / nx / ny - 1) + ")";
+        FM_THROW(InputError, "input.image: '" + image.source + "' voxel " + voxel + " has value " +
+                                 std::to_string(image.labels[at]) +
+                                 ": a label is 0 (outside) or positive; pick the labels to mesh "
+                                 "with input.labels, or set input.threshold to segment a "
+                                 "grayscale image");
+    }
     if (chosen.empty()) chosen = present;
     for (Label l : chosen)
         if (!present.count(l))

@@ -1010,6 +1010,36 @@ TEST_CASE("compressed and text data are counted against the header before alloca
                       {"ElementDataFile has no value", "would read line"});
         write_bytes(path, with_line(bytes, "ElementSpacing", "ElementSpacing = "));
         check_refused(path, ImageReadOptions{}, path, {"ElementSpacing has no value"});
+        // A CompressedDataSize shorter than the stream: MetaIO inflates only those bytes and
+        // the voxels past them were garbage labels (the malformed-input campaign, issue 21).
+        write_bytes(path, with_line(bytes, "CompressedDataSize", "CompressedDataSize = 40"));
+        check_refused(path, ImageReadOptions{}, path,
+                      {"truncated", "once decompressed", "from its CompressedDataSize 40 bytes"});
+        // Two names of one field: MetaIO misread the header, the second went unchecked.
+        write_bytes(
+            path, with_line(bytes, "ElementSpacing", "ElementSpacing = 1 1 1\nPosition = nan 0 0"));
+        check_refused(path, ImageReadOptions{}, path,
+                      {"Offset and Position are two names of one field"});
+    }
+    SECTION("MetaImage text voxels are numbers within the voxel type") {
+        const std::string path = dir + "/text.mha";
+        std::string values;
+        for (int v = 0; v < 12 * 10 * 8; ++v) values += std::to_string(v % 2) + " ";
+        const std::string header =
+            "ObjectType = Image\nNDims = 3\nBinaryData = False\nDimSize = 12 10 8\n"
+            "ElementType = MET_UCHAR\nElementDataFile = LOCAL\n";
+        write_bytes(path, header + values);
+        REQUIRE(read_label_image(path, ImageReadOptions{}).dims[0] == 14);
+        // MetaIO stopped at a token it could not read and left the rest as allocated.
+        const std::size_t at = 2 * (12 * 10 * 3 + 12 * 2 + 5);  // voxel (5, 2, 3)
+        write_bytes(path, header + values.substr(0, at) + "x" + values.substr(at + 1));
+        check_refused(path, ImageReadOptions{}, path, {"text voxel 389 (5, 2, 3) is 'x'"});
+        write_bytes(path, header + values.substr(0, at) + "300" + values.substr(at + 1));
+        check_refused(path, ImageReadOptions{}, path, {"is 300, outside the range of MET_UCHAR"});
+        write_bytes(path, header + values.substr(0, at) + "1e999" + values.substr(at + 1));
+        check_refused(path, ImageReadOptions{}, path, {"is 1e999, outside the range"});
+        write_bytes(path, header + values.substr(0, 2 * 500) + std::string(2000, ' '));
+        check_refused(path, ImageReadOptions{}, path, {"holds 500 of the 960 text voxels"});
     }
     SECTION("NRRD gzip, and ascii text") {
         const std::string path = dir + "/labels.nrrd";

@@ -327,6 +327,25 @@ TEST_CASE("extract: label selection and its errors", "[surface]") {
     p.method = surface::ExtractMethod::FlyingEdges;
     CHECK_THROWS_AS(surface::extract(image, p, ctx), core::InputError);
 
+    // A negative value with input.labels: all is refused naming the voxel in the file's own
+    // index (the image is padded by one); picked labels leave it outside.
+    const std::size_t nx = static_cast<std::size_t>(image.dims[0]),
+                      ny = static_cast<std::size_t>(image.dims[1]);
+    const std::size_t at = (4 * ny + 3) * nx + 5;  // padded (5, 3, 4): the file's (4, 2, 3)
+    const core::Label kept = image.labels[at];
+    image.labels[at] = -2;
+    try {
+        surface::extract(image, surface::ExtractParams{}, ctx);
+        FAIL("a negative label must be an error");
+    } catch (const core::InputError& e) {
+        CHECK_THAT(e.what(), Catch::Contains("voxel (4, 2, 3) has value -2") &&
+                                 Catch::Contains("input.labels"));
+    }
+    p.method = surface::ExtractMethod::SurfaceNets;
+    p.labels = {1, 3};
+    CHECK(core::region_labels(surface::extract(image, p, ctx)) == std::vector<core::Label>{1, 3});
+    image.labels[at] = kept;
+
     std::fill(image.labels.begin(), image.labels.end(), 0);
     CHECK_THROWS_AS(surface::extract(image, surface::ExtractParams{}, ctx), core::InputError);
 }
