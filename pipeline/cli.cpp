@@ -263,14 +263,16 @@ int run_mesh_command(const Arguments& args, RunOptions options) {
     io::check_label_image(built.input.image, {.threshold = built.input.threshold,
                                               .spacing = built.input.spacing,
                                               .max_image_gib = built.input.max_image_gib});
-    claim_output_dir(dir.string());
-    io::write_text_atomically(
-        recipe_file.string(),
-        "# Written by frontmesh " + std::string(version()) +
-            " mesh: every key with the value the run used.\n# Run it again with: frontmesh "
-            "run " +
-            recipe_file.string() + "\n" + effective_recipe_yaml(built));
-    const Recipe recipe = load_recipe(recipe_file.string());
+    const std::string text = "# Written by frontmesh " + std::string(version()) +
+                             " mesh: every key with the value the run used.\n# Run it again "
+                             "with: frontmesh run " +
+                             recipe_file.string() + "\n" + effective_recipe_yaml(built);
+    // The run is the file's text read back, so the two cannot differ; the file is written
+    // when the run first writes into the folder, after the checks that need the image (a
+    // size whose work is beyond limits.max_memory_gib left recipe.yaml and the marker
+    // behind; found by the malformed-input campaign, issue 21).
+    const Recipe recipe = parse_recipe(text, recipe_file.string());
+    options.files_on_claim.emplace_back("recipe.yaml", text);
     if (!options.quiet) std::cerr << "recipe: " << recipe_file.string() << '\n';
     return run_and_report(recipe, options);
 }
@@ -315,9 +317,9 @@ int run_cohort_command(const Arguments& args) {
 }
 
 // validate with input.surface: the surface is read and checked as a run with the same
-// --from and --until checks it (coordinates and labels; with --from tetra, meshable as it
-// is), and the work of remesh and tetra on it estimated against limits.max_memory_gib
-// (issue 21); repair changes the surface's extent little.
+// --from and --until checks it (coordinates and labels; with --from tetra or remesh,
+// meshable as it is), and the work of remesh and tetra on it estimated against
+// limits.max_memory_gib (issue 21); repair changes the surface's extent little.
 void validate_surface_input(const Recipe& recipe, const std::string& from,
                             const std::string& until) {
     const std::string source = "input.surface '" + recipe.input.surface + "'";
@@ -330,6 +332,7 @@ void validate_surface_input(const Recipe& recipe, const std::string& from,
                                     recipe.limits.max_memory_gib);
         return;
     }
+    if (from == "remesh") core::require_meshable_surface(surface, source);  // its background
     const bool tetra = until.empty() || until == "tetra" || until == "refine";
     if (!until.empty() && until != "remesh" && !tetra) return;
     require_input_within_memory_limit(remesh_estimate(surface, recipe.remesh),

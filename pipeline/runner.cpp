@@ -600,10 +600,14 @@ void Run::read_input() {
         core::require_valid_regions(surface, user_surface());
         // Straight into tetra, the surface is kept exactly as it is: it must be closed,
         // oriented and clean (repair does that otherwise). A defect is bad input, exit 2.
-        if (stages_[entry_].in == Kind::Surface && stages_[entry_].out == Kind::Tets) {
+        // Remesh takes it as its background and needs the same (an inside-out sphere given
+        // with --from remesh ran 20 rounds to over 1 GB, then tetra failed with exit 1; found
+        // by the malformed-input campaign, issue 21).
+        const bool to_tets =
+            stages_[entry_].in == Kind::Surface && stages_[entry_].out == Kind::Tets;
+        if (to_tets || stages_[entry_].name == "remesh")
             core::require_meshable_surface(surface, user_surface());
-            warn_obtuse_triangles(surface);
-        }
+        if (to_tets) warn_obtuse_triangles(surface);
     } else {
         info("reading checkpoint " + out_.checkpoint(stages_[first_ - 1]).string());
         data_ = read_checkpoint(out_.checkpoint(stages_[first_ - 1]), stages_[first_ - 1].out);
@@ -685,6 +689,8 @@ void Run::committed(const fs::path& file) {
 void Run::prepare_folder() {
     if (folder_ready_) return;
     claim_output_dir(out_.dir.string());
+    for (const auto& [name, text] : options_.files_on_claim)
+        io::write_text_atomically((out_.dir / name).string(), text);
     fs::create_directories(out_.dir / "checkpoints");
     log_.open(out_.dir / "frontmesh.log");
     folder_ready_ = true;

@@ -5,6 +5,7 @@
 #include <atomic>
 #include <functional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "pipeline/recipe.h"
@@ -26,6 +27,10 @@ struct RunOptions {
     /// commit order. An exception from it ends the run at that point as a kill would: tests
     /// stop a run between two renames with it. Null: nothing is called.
     std::function<void(const std::string& path)> on_commit;
+    /// Files (name in output.dir, text) written atomically when the run first writes into
+    /// its folder, after every check before any work: `frontmesh mesh`'s recipe.yaml, so
+    /// that a run refused by those checks leaves nothing behind.
+    std::vector<std::pair<std::string, std::string>> files_on_claim;
 };
 
 /// Stage names in pipeline order, of the stages this build can run.

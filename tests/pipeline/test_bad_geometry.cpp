@@ -154,6 +154,19 @@ TEST_CASE("a given surface's geometry defects are bad input naming defect and pl
         }
         require_bad_surface(dir, "hole", open, "", {"hole of", "repair.max_hole_edges", "mm"},
                             "repair:\n  max_hole_edges: 3\n");
+        // Remesh takes the surface as its background: it must be closed (the message named
+        // neither file nor place) and turned outward (the malformed-input campaign, issue 21).
+        require_bad_surface(dir, "hole_remesh", open, "--from remesh",
+                            {"open boundary of region 1", "near (", "mm"});
+        require_validate_refuses(dir, "hole_remesh", "--from remesh", "open boundary");
+    }
+    SECTION("inside out, given to remesh") {
+        // 20 remesh rounds, over 1 GB and 3 minutes, then exit 1 in tetra, before.
+        core::SurfaceNetwork s = fixtures::uv_sphere(10.0, 12);
+        for (auto& t : s.faces) std::swap(t[1], t[2]);
+        require_bad_surface(dir, "inside_out", s, "--from remesh",
+                            {"region 1 encloses -", "they must point out of region_in"});
+        require_validate_refuses(dir, "inside_out", "--from remesh", "encloses -");
     }
 }
 

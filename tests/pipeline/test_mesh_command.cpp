@@ -79,6 +79,12 @@ TEST_CASE("frontmesh mesh: image to mesh with a written recipe that re-runs the 
         CHECK(labels.exit_code == 2);
         CHECK_THAT(labels.err, Catch::Contains("--labels"));
         CHECK(run_frontmesh("mesh nothere.mha", dir).exit_code == 2);
+        // Refused by the estimate that needs the image: nothing written, not even the recipe
+        // (the malformed-input campaign, issue 21: recipe.yaml and the marker were left).
+        const auto tiny = run_frontmesh("mesh phantom.mha -o fourth --size 1e-6", dir);
+        CHECK(tiny.exit_code == 2);
+        CHECK_THAT(tiny.err, Catch::Contains("limits.max_memory_gib"));
+        CHECK_FALSE(fs::exists(fs::path(dir) / "fourth"));
     }
     {
         CHECK_THAT(run_frontmesh("--help", dir).out,
