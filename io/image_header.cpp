@@ -533,6 +533,14 @@ void check_nifti(const std::string& path, const std::string& file, const HeaderL
                  non_finite_voxels_message(path, non_finite_text(scan.first_value()), first % nx,
                                            first / nx % ny, first / (nx * ny), scan.count()));
     }
+    // Checked whole like a NIfTI-1 header, but Debian's ITK 5.2 has no NIfTI-2 reader: its
+    // own message ("not an image ITK can read, damaged header") blamed a sound file (the
+    // malformed-input campaign, issue 21).
+    if (n.version == 2)
+        fail(
+            "NIfTI-2 (sizeof_hdr 540), which ITK 5.2 cannot read; save the image as NIfTI-1, "
+            "e.g. with nibabel: nib.save(nib.Nifti1Image(img.dataobj, img.affine), "
+            "'image.nii.gz')");
 }
 
 // ---------------------------------------------------------------------------------------

@@ -556,7 +556,11 @@ OpenImage open_image(const std::string& path, const ImageReadOptions& options) {
         FM_THROW(InputError, image_prefix(path) + "has " +
                                  std::to_string(io->GetNumberOfComponents()) +
                                  " components per voxel; a scalar image is required");
-    const unsigned dims = effective_dimensions(*io);
+    // A single file declared 3-D (or more, the extra extents 1) is a volume even when its
+    // third extent is 1: one slice, a slab one voxel thick (it was refused as "2-D" while
+    // 1 x 1 x 4 meshed; the malformed-input campaign, issue 21). Series slices are 2-D.
+    unsigned dims = effective_dimensions(*io);
+    if (source.files.size() == 1 && dims == 2 && io->GetNumberOfDimensions() >= 3) dims = 3;
     if (source.files.size() == 1 && dims != 3)
         FM_THROW(InputError, image_prefix(path) + "is a " + std::to_string(dims) +
                                  "-D image; a 3-D image is required");

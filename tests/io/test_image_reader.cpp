@@ -536,6 +536,15 @@ TEST_CASE("unreadable inputs throw InputError naming the path", "[io]") {
             CHECK(flat.find(dir + name) != std::string::npos);
             CHECK(flat.find("2-D") != std::string::npos);
         }
+        // Declared 3-D with one slice: a volume one voxel thick, read (it was refused as
+        // 2-D while 1 x 1 x 4 was read; the malformed-input campaign, issue 21).
+        Grid one_slice;
+        one_slice.size = {4, 3, 1};
+        for (const std::string name : {"/slab.nii", "/slab.mha"}) {
+            write_image(make_image<unsigned char>(one_slice, as_value).GetPointer(), dir + name);
+            const LabelImage slab = read_label_image(dir + name, ImageReadOptions{});
+            CHECK(slab.dims == std::array<int, 3>{6, 5, 3});
+        }
     }
     SECTION("a multi-component image") {
         using Rgb = itk::Image<itk::RGBPixel<unsigned char>, 3>;
@@ -732,6 +741,9 @@ TEST_CASE("NIfTI header values are checked before ITK reads them", "[io]") {
         const std::string path = dir + "/nifti2.nii.gz";
         write_gz(path, header + std::string(64, '\1'));
         check_refused(path, ImageReadOptions{}, path, {"pixdim[2]", "nan"});
+        // A sound one: refused as what it is, not as a damaged file ITK cannot read.
+        write_gz(path, poked<double>(header, 120, 1.0) + std::string(64, '\1'));
+        check_refused(path, ImageReadOptions{}, path, {"NIfTI-2", "save the image as NIfTI-1"});
     }
 }
 
