@@ -430,6 +430,13 @@ RawMesh read_msh(const std::string& path) {
             tris.push_back({tag, {v[0], v[1], v[2], 0}, region});
     };
 
+    // How many items of `tokens` tokens (at least a byte and a separator each) the rest of
+    // the file can hold: a count beyond it is not reserved (a $Nodes count of 1e9 in a
+    // 300-byte file threw bad_alloc, exit 1; found by the malformed-input campaign, issue 21).
+    auto room = [&in](int tokens) {
+        const std::size_t left = in.text().size() - std::min(in.text().size(), in.position());
+        return static_cast<long long>(left / static_cast<std::size_t>(2 * tokens)) + 1;
+    };
     // The data of a binary section starts after the line break that ends its $Name.
     auto start_data = [&] {
         if (!binary) return;
@@ -478,7 +485,7 @@ RawMesh read_msh(const std::string& path) {
                 const long long total = in.integer("the number of nodes", 8);
                 in.integer("the smallest node tag", 8);
                 in.integer("the largest node tag", 8);
-                nodes.reserve(static_cast<std::size_t>(std::max(0LL, total)));
+                nodes.reserve(static_cast<std::size_t>(std::max(0LL, std::min(total, room(4)))));
                 for (long long b = 0; b < blocks; ++b) {
                     in.integer("an entity dimension", 4);
                     in.integer("an entity tag", 4);
@@ -496,7 +503,10 @@ RawMesh read_msh(const std::string& path) {
                 in.set_binary(false);
             } else {
                 const long long n = in.integer("the number of nodes");
-                nodes.reserve(static_cast<std::size_t>(std::max(0LL, n)));
+                if (n < 0 || n > room(4))
+                    in.fail("the number of nodes " + std::to_string(n) +
+                            " is more than the rest of the file holds");
+                nodes.reserve(static_cast<std::size_t>(n));
                 for (long long i = 0; i < n; ++i) {
                     const long long tag = in.integer("a node number");
                     std::array<double, 3> p{};

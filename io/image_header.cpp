@@ -705,7 +705,10 @@ public:
                          "' is not a " + (decimal_only_ ? "decimal number" : "number"));
             fail(key + " '" + value + "' is not a list of numbers");
         }
-        if (values->size() < count)
+        // Exactly: extra values (an Offset of four numbers in a 3-D header) mean a header
+        // written for another dimension; the readers take the first ones silently (the
+        // malformed-input campaign, issue 21).
+        if (values->size() != count)
             fail(key + " '" + value + "' has " + std::to_string(values->size()) +
                  " values; expected " + std::to_string(count));
         values->resize(count);
@@ -820,6 +823,33 @@ void check_meta_pattern(const TextHeader& header, const std::vector<std::string>
         header.fail(key + " pattern names " + std::to_string(files) + " files (" + tokens[1] +
                     " to " + tokens[2] + " by " + tokens[3] + "); DimSize needs " +
                     std::to_string(slices));
+}
+
+/// The files of a pattern (checked by check_meta_pattern): each a regular file holding, when
+/// raw (`raw_bytes`), a slice's bytes. MetaIO read a pattern of twelve missing files as an
+/// image without complaint, and a mesh was made of it (the malformed-input campaign, issue
+/// 21). Bounded by the slice count, which the image's memory limit bounds.
+void check_meta_pattern_files(const std::string& path, const std::string& header_file,
+                              const std::vector<std::string>& tokens,
+                              const std::vector<std::uint64_t>& counted, std::uint64_t voxel_bytes,
+                              bool raw_bytes) {
+    const std::int64_t first = std::stoll(tokens[1]), last = std::stoll(tokens[2]),
+                       step = std::stoll(tokens[3]);
+    // A file holds the first SUBDIM extents (all but the last by default); counted may end
+    // with the channels, which every file holds too.
+    const std::size_t dims = counted.size();
+    const std::size_t subdim = tokens.size() == 5 ? std::stoul(tokens[4]) : dims - 1;
+    std::uint64_t slice_bytes = voxel_bytes;
+    for (std::size_t d = 0; d < std::min(subdim, dims); ++d) slice_bytes *= counted[d];
+    std::vector<char> name(tokens[0].size() + 32);
+    for (std::int64_t i = first; i <= last; i += step) {
+        std::snprintf(name.data(), name.size(), tokens[0].c_str(), static_cast<int>(i));
+        const std::string slice = beside(header_file, name.data());
+        require_regular_file(path, slice, "data file (ElementDataFile pattern)");
+        if (raw_bytes)
+            check_data_size(path, "data file '" + slice + "' (ElementDataFile pattern) ",
+                            file_size_of(slice), slice_bytes, "of the slice its header announces");
+    }
 }
 
 void check_metaimage(const std::string& path, const std::string& file, const HeaderLimits& limits) {
@@ -964,6 +994,7 @@ void check_metaimage(const std::string& path, const std::string& file, const Hea
     if (tokens.front() == "LIST") return;  // values are never empty (checked above)
     if (data_name.find('%') != std::string::npos) {
         check_meta_pattern(header, tokens, extents);
+        check_meta_pattern_files(path, file, tokens, extents, voxel_bytes, binary && !compressed);
         return;
     }
     const bool local = data_name == "LOCAL" || data_name == "Local" || data_name == "local";
@@ -995,6 +1026,10 @@ void check_metaimage(const std::string& path, const std::string& file, const Hea
         if (const auto size = value_of({"CompressedDataSize"}))
             compressed_size = static_cast<std::uint64_t>(
                 header.integer(size->first, size->second, 1, std::int64_t{1} << 50));
+        if (compressed_size != std::numeric_limits<std::uint64_t>::max())
+            check_data_size(path, what,
+                            file_size_of(data_file) - std::min(start, file_size_of(data_file)),
+                            compressed_size, "of compressed data its CompressedDataSize announces");
         // MetaIO allocates the whole image before it inflates: inflate once here to count,
         // from the CompressedDataSize bytes MetaIO reads (fewer than the stream's: the voxels
         // past them were garbage labels; found by the malformed-input campaign, issue 21).

@@ -9,7 +9,9 @@
 #                                      extract the whole AAL atlas (200 s under ASan; the io
 #                                      tests read it); all the pipeline tests (the command
 #                                      line, recipes, output folders, bad input,
-#                                      interruptions, end-to-end runs, clients); the fuzz run
+#                                      interruptions, end-to-end runs, clients); one torture
+#                                      seed per family and the tetra regression surfaces;
+#                                      the fuzz run
 # Tests labelled "asan-slow" are left out (tests/CMakeLists.txt says which and why); they run
 # in the normal build. Pipeline tests tagged [asan-slow] mesh real images or run clients
 # (snakemake, ccx, FEniCSx, a CMake build): 3 to 7 times slower under ASan (a capped
@@ -60,6 +62,25 @@ if ((ci)); then
     exit 1
   fi
   tail -n 2 "$lists/log0" "$lists/log1"
+  # The torture corpus under the sanitizers, in two processes: one seed of each family
+  # (65 s) and the two tetra regression surfaces (69 s of CPU). The normal build runs the
+  # larger subset and the remesh regression (over 300 s under ASan), the full run all.
+  python=/usr/bin/python3
+  "$python" tests/torture/run.py --seeds 0-7 -j 1 --timeout 600 \
+    --frontmesh build-san/pipeline/frontmesh --out build-san/tests/torture \
+    > build-san/tests/torture.log 2>&1 &
+  first=$!
+  "$python" tests/torture/regressions.py --only 'tetra-*' --timeout 600 \
+    --frontmesh build-san/pipeline/frontmesh --out build-san/tests/regressions \
+    > build-san/tests/regressions.log 2>&1 &
+  second=$!
+  wait "$first" || failed=1
+  wait "$second" || failed=1
+  tail -n 1 build-san/tests/torture.log build-san/tests/regressions.log
+  if ((failed)); then
+    cat build-san/tests/torture.log build-san/tests/regressions.log
+    exit 1
+  fi
 else
   (cd build-san && ctest --output-on-failure -j"$(nproc)" -LE asan-slow "$@")
 fi

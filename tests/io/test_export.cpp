@@ -304,6 +304,15 @@ TEST_CASE("readers reject bad files naming file and line", "[io][export]") {
     std::ofstream(dir + "/f.mesh")
         << "MeshVersionFormatted 2\nDimension 3\nEdges\n4000000000000000000\n1 2 0\n";
     CHECK_THROWS_WITH(io::read_mesh(dir + "/f.mesh"), Catch::Contains("more than the rest"));
+    // The malformed-input campaign (issue 21): a MSH 2.2 $Nodes count of 1e9 in a 300-byte
+    // file threw bad_alloc (exit 1); in MSH 4.1 the count is not reserved beyond the file.
+    std::ofstream(dir + "/g.msh") << "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n1000000008\n"
+                                     "1 0 0 0\n2 1 0 0\n$EndNodes\n";
+    CHECK_THROWS_WITH(io::read_mesh(dir + "/g.msh"),
+                      Catch::Contains("g.msh:5") && Catch::Contains("more than the rest"));
+    std::ofstream(dir + "/h.msh") << "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$Nodes\n"
+                                     "1 4000000000000000000 1 2\n3 1 0 2\n1\n2\n0 0 0\n";
+    CHECK_THROWS_AS(io::read_mesh(dir + "/h.msh"), core::InputError);
     std::ofstream(dir + "/d.inp")
         << "*NODE\n1, 0, 0, 0\n*ELEMENT, TYPE=C3D4, ELSET=A\n1, 1, 2, 3, 9\n";
     CHECK_THROWS_AS(io::read_mesh(dir + "/d.inp"), core::InputError);

@@ -827,6 +827,17 @@ TEST_CASE("MetaImage and NRRD headers and data sizes are checked before allocati
         write_bytes(path,
                     with_line(header, "ElementDataFile", "ElementDataFile = slice%03d.raw 1 13 2"));
         check_refused(path, ImageReadOptions{}, path, {"names 7 files", "DimSize needs 8"});
+        // Each file present and holding its slice: twelve missing files were read as an
+        // image and meshed (the malformed-input campaign, issue 21).
+        write_bytes(path,
+                    with_line(header, "ElementDataFile", "ElementDataFile = slice%03d.raw 2 16 2"));
+        check_refused(path, ImageReadOptions{}, path,
+                      {"slice002.raw' does not exist", "ElementDataFile pattern"});
+        write_bytes(dir + "/slice009.raw", raw.substr(0, slice - 1));
+        write_bytes(path,
+                    with_line(header, "ElementDataFile", "ElementDataFile = slice%03d.raw 1 15 2"));
+        check_refused(path, ImageReadOptions{}, dir + "/slice009.raw",
+                      {"truncated", "of the slice its header announces"});
     }
     SECTION("MetaImage with attached data (.mha)") {
         const std::string path = dir + "/labels.mha";
@@ -1009,7 +1020,8 @@ TEST_CASE("compressed and text data are counted against the header before alloca
         write_compressed(path);
         const std::string bytes = read_bytes(path);
         write_bytes(path, bytes.substr(0, bytes.size() - 20));  // a damaged stream
-        check_refused(path, ImageReadOptions{}, path, {"truncated", "once decompressed"});
+        check_refused(path, ImageReadOptions{}, path,
+                      {"truncated", "of compressed data its CompressedDataSize announces"});
         // Without its size MetaIO read the data after the header as garbage (88 labels).
         const auto size_at = bytes.find("\nCompressedDataSize");
         REQUIRE(size_at != std::string::npos);
@@ -1027,6 +1039,18 @@ TEST_CASE("compressed and text data are counted against the header before alloca
         write_bytes(path, with_line(bytes, "CompressedDataSize", "CompressedDataSize = 40"));
         check_refused(path, ImageReadOptions{}, path,
                       {"truncated", "once decompressed", "from its CompressedDataSize 40 bytes"});
+        // Fewer compressed bytes than CompressedDataSize (the stream's checksum cut off).
+        const auto size_line = bytes.find("CompressedDataSize = ");
+        REQUIRE(size_line != std::string::npos);
+        const long announced = std::stol(bytes.substr(size_line + 21));
+        write_bytes(path, with_line(bytes, "CompressedDataSize",
+                                    "CompressedDataSize = " + std::to_string(announced + 4)));
+        check_refused(path, ImageReadOptions{}, path,
+                      {"truncated", "of compressed data its CompressedDataSize announces"});
+        // Values for another dimension: the readers took the first ones silently.
+        write_bytes(path, with_line(bytes, "ElementSpacing", "ElementSpacing = 1 1 1 1"));
+        check_refused(path, ImageReadOptions{}, path,
+                      {"ElementSpacing '1 1 1 1' has 4 values; expected 3"});
         // Two names of one field: MetaIO misread the header, the second went unchecked.
         write_bytes(
             path, with_line(bytes, "ElementSpacing", "ElementSpacing = 1 1 1\nPosition = nan 0 0"));

@@ -14,6 +14,7 @@ One line per surface; the last line is 'N passed, N failed'. Exit 0 when nothing
 """
 
 import argparse
+import fnmatch
 import glob
 import os
 import shutil
@@ -31,12 +32,15 @@ def main():
     ap.add_argument("--frontmesh", default=os.path.join(torture.REPO, "build", "pipeline", "frontmesh"))
     ap.add_argument("--out", default=os.path.join("/tmp", "frontmesh-regressions"))
     ap.add_argument("--timeout", type=int, default=300)
+    ap.add_argument("--only", default="*",
+                    help="a name pattern (fnmatch), e.g. 'tetra-*' (the sanitizer run of CI)")
     args = ap.parse_args()
     meshcheck = torture.meshcheck_path()
     if meshcheck is None:
         print("FRONTMESH-TEST-SKIPPED: ../shared/tools/meshcheck.py not found (or FRONTMESH_MESHCHECK)")
         return 0
-    surfaces = sorted(glob.glob(os.path.join(HERE, "regressions", "*.vtu")))
+    surfaces = sorted(s for s in glob.glob(os.path.join(HERE, "regressions", "*.vtu"))
+                      if fnmatch.fnmatch(os.path.splitext(os.path.basename(s))[0], args.only))
     if not surfaces:
         print("regressions.py: no surfaces in %s" % os.path.join(HERE, "regressions"))
         return 1
