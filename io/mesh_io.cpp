@@ -107,6 +107,12 @@ private:
     std::string message_;
 };
 
+}  // namespace
+
+void silence_vtk_console() { vtkObject::GlobalWarningDisplayOff(); }
+
+namespace {
+
 // ---------------------------------------------------------------------------------------
 // Writing
 

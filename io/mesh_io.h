@@ -21,6 +21,13 @@ using FieldStrings = std::map<std::string, std::string>;
 /// Per-point float64 arrays by name (e.g. "target_size" of the remesh checkpoint).
 using PointArrays = std::map<std::string, std::vector<double>>;
 
+/// Stops VTK from printing its own error and warning text (process-wide): the command line
+/// reports each failure as one line of its own, and the readers and writers turn VTK's
+/// error events into those lines. Without it a damaged compressed block printed two
+/// coloured log lines of VTK's zlib compressor before frontmesh's error (the malformed-
+/// input campaign, issue 21).
+void silence_vtk_console();
+
 /// Writes `surface` as a VTK XML unstructured grid of triangles (binary, zlib-compressed),
 /// atomically. Cell arrays: `region_in`, `region_out` (int32), `eta` (Eq. 2) and
 /// `min_angle` (degrees) (float64). Field data: one string array per entry of `fields`;

@@ -394,6 +394,7 @@ int run_cli(int argc, char** argv) {
             return 0;
         }
     }
+    io::silence_vtk_console();  // each failure is one line of ours
     try {
         const Arguments args = parse(argc, argv);
         if (args.command.empty()) {

@@ -245,6 +245,23 @@ TEST_CASE("frontmesh check and convert on the command line", "[pipeline][check]"
                Catch::Contains("<SolidDomain name=\"White_matter\""));
 
     // Bad input: exit 2 with one line naming the file.
+    {
+        // Damaged compressed data: VTK's zlib compressor printed two coloured log lines of
+        // its own before ours (the malformed-input campaign, issue 21).
+        std::string bytes = frontmesh::testing::slurp(dir + "/in.vtu");
+        const std::size_t data = bytes.find('_', bytes.find("<AppendedData"));
+        REQUIRE(data != std::string::npos);
+        const std::size_t last = bytes.find("</AppendedData>");
+        for (std::size_t i = data + 60; i < std::min(data + 400, last - 20); i += 7)
+            bytes[i] ^= 0x5a;
+        frontmesh::testing::write_file(dir + "/damaged.vtu", bytes);
+        r = run_frontmesh("check damaged.vtu", dir);
+        INFO(r.err);
+        CHECK(r.exit_code == 2);
+        CHECK_THAT(r.err,
+                   Catch::StartsWith("frontmesh: error: ") && Catch::Contains("damaged.vtu"));
+        CHECK(std::count(r.err.begin(), r.err.end(), '\n') == 1);
+    }
     r = run_frontmesh("check missing.msh", dir);
     CHECK(r.exit_code == 2);
     CHECK_THAT(r.err, Catch::Contains("missing.msh"));
