@@ -29,6 +29,7 @@
 #include "pipeline/runner.h"
 #include "pipeline/terminal.h"
 #include "pipeline/version.h"
+#include "surface/extract.h"
 
 namespace frontmesh::pipeline {
 namespace {
@@ -340,6 +341,25 @@ void validate_surface_input(const Recipe& recipe, const std::string& from,
                                       recipe.limits.max_memory_gib);
 }
 
+// validate with input.image, when the run reads it: the image is read and its labels
+// checked as extract checks them (absent or negative labels; validate said "valid" to a
+// label the run then refused, found by the malformed-input campaign, issue 21), and the
+// work of remesh and tetra estimated from it as the run does before any stage.
+void validate_image_input(const Recipe& recipe, const std::string& until) {
+    io::ImageReadOptions read;
+    read.threshold = recipe.input.threshold;
+    read.spacing = recipe.input.spacing;
+    read.max_image_gib = recipe.input.max_image_gib;
+    read.frame = recipe.output.frame;
+    const core::LabelImage image = io::read_label_image(recipe.input.image, read);
+    surface::check_labels(image, recipe.extract.labels);
+    const bool tetra = until.empty() || until == "tetra" || until == "refine";
+    if (!until.empty() && until != "remesh" && !tetra) return;
+    require_input_within_memory_limit(remesh_estimate(image, recipe.extract.labels, recipe.remesh),
+                                      labelled_volume(image, recipe.extract.labels), tetra,
+                                      recipe.tetra, recipe.limits.max_memory_gib);
+}
+
 // "key: default" then, from column 48, "# doc (unit, range)".
 void print_keys() {
     for (const RecipeKey& k : recipe_keys()) {
@@ -450,6 +470,8 @@ int run_cli(int argc, char** argv) {
         if (args.command == "validate") {
             if (!recipe.input.surface.empty())
                 validate_surface_input(recipe, args.from, args.until);
+            else if (args.from.empty() || args.from == "extract")
+                validate_image_input(recipe, args.until);
             std::cout << args.recipe << ": valid; output in " << recipe.output.dir << '\n';
             return 0;
         }

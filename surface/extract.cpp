@@ -943,17 +943,14 @@ std::vector<Label> cleaned_labels(const core::LabelImage& image, const ExtractPa
 
 }  // namespace
 
-core::SurfaceNetwork extract(const core::LabelImage& image, const ExtractParams& params,
-                             core::StageContext& ctx) {
-    validate(params);
-    FM_CHECK(image.labels.size() == image.voxel_count());
+std::set<Label> check_labels(const core::LabelImage& image, const std::vector<Label>& labels) {
     const std::set<Label> present = labels_present(image.labels);
     if (present.empty())
         FM_THROW(
             InputError,
             "input.image: '" + image.source +
                 "' has no labelled (non-zero) voxel; for a grayscale image set input.threshold");
-    std::set<Label> chosen(params.labels.begin(), params.labels.end());
+    std::set<Label> chosen(labels.begin(), labels.end());
     if (chosen.empty() && *present.begin() < 0) {
         // A label is positive: with input.labels: all a negative value became a region whose
         // faces had region_out -2, refused by repair naming no file or voxel (found by the
@@ -979,6 +976,15 @@ core::SurfaceNetwork extract(const core::LabelImage& image, const ExtractParams&
             FM_THROW(InputError, "input.labels: label " + std::to_string(l) + " is not in '" +
                                      image.source + "' (labels present: " + label_list(present) +
                                      ")");
+    return chosen;
+}
+
+core::SurfaceNetwork extract(const core::LabelImage& image, const ExtractParams& params,
+                             core::StageContext& ctx) {
+    validate(params);
+    FM_CHECK(image.labels.size() == image.voxel_count());
+    const std::set<Label> present = labels_present(image.labels);
+    const std::set<Label> chosen = check_labels(image, params.labels);
     ctx.count("extract.labels", static_cast<double>(chosen.size()));
     // The chosen labels as the user gave them: each of their components is meshed or named.
     std::vector<Label> only_chosen;

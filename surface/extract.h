@@ -11,6 +11,7 @@
 //        and listed (StageContext::drop).
 //   Next: repair.
 
+#include <set>
 #include <vector>
 
 #include "pipeline/core/label_image.h"
@@ -80,6 +81,13 @@ const core::ParamTable<ExtractParams>& extract_keys();
 /// declared range, "input.labels: ..." for a label <= 0, and
 /// "repair.min_component_volume_mm3: ..." for a negative or non-finite minimum.
 void validate(const ExtractParams& params);
+
+/// The labels extract meshes (`labels`, or every label present when it is empty), checked
+/// as extract checks them before any work: InputError when the image has no labelled voxel,
+/// a chosen label is absent, or (every label chosen) a voxel holds a negative value. Also
+/// used by `frontmesh validate`. Cost: one pass over the voxels.
+std::set<core::Label> check_labels(const core::LabelImage& image,
+                                   const std::vector<core::Label>& labels);
 
 /// Contours the chosen labels. With several labels the result is one network: each
 /// interface is one set of triangles carrying both labels (region_in = larger label,

@@ -266,3 +266,23 @@ TEST_CASE("a key given twice in a --set value or as two spellings of a label is 
     CHECK_THAT(r.err, Catch::Contains("labels.yaml:4: remesh.label_edge_length: label 1 is "
                                       "given twice"));
 }
+
+TEST_CASE("validate checks an image's labels and the work they ask for, as a run does",
+          "[pipeline]") {
+    // The malformed-input campaign (issue 21): validate said "valid" to a label the run then
+    // refused.
+    const std::string dir = phantom_dir("validate_image");
+    auto r = run_frontmesh("validate recipe.yaml --set input.labels=[1]", dir);
+    CHECK(r.exit_code == 0);
+    r = run_frontmesh("validate recipe.yaml --set input.labels=[7]", dir);
+    CHECK(r.exit_code == 2);
+    CHECK_THAT(r.err,
+               Catch::Contains("input.labels: label 7 is not in") && Catch::Contains("ball.mha"));
+    r = run_frontmesh("validate recipe.yaml --set remesh.edge_length=0.000001", dir);
+    CHECK(r.exit_code == 2);
+    CHECK_THAT(r.err, Catch::Contains("limits.max_memory_gib"));
+    // --until repair: no remesh, so no estimate.
+    r = run_frontmesh("validate recipe.yaml --set remesh.edge_length=0.000001 --until repair", dir);
+    CHECK(r.exit_code == 0);
+    CHECK_FALSE(fs::exists(fs::path(dir) / "out"));
+}
