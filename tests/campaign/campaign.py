@@ -32,6 +32,7 @@ inputs of failing cases are copied to FINDINGS/ID/. Then counts per class and, w
 """
 import argparse
 import concurrent.futures
+import errno
 import gzip
 import hashlib
 import json
@@ -672,7 +673,17 @@ class Runner:
         before_out = snapshot(spec.out) if spec.out else None
         before_watch = [snapshot(w) for w in spec.watch]
         before_shared = self.shared_snapshot()
-        rc, out, err, wall = self.run_cmd(spec.argv, spec.cwd)
+        try:
+            rc, out, err, wall = self.run_cmd(spec.argv, spec.cwd)
+        except OSError as e:
+            if e.errno != errno.E2BIG:
+                raise
+            # The kernel refuses the command line itself (a generated --set value beyond
+            # ARG_MAX): frontmesh never runs, so there is nothing to judge.
+            return {"id": cid, "class": cls, "desc": spec.desc, "expect": spec.expect,
+                    "outcome": "not run (argument list too long for the OS)", "wall_s": 0.0,
+                    "violations": [], "notes": [], "stderr_last": "",
+                    "repro": self.repro(cid, spec), "cwd": spec.cwd, "inputs": spec.inputs}
         v = []      # violations
         notes = []
         outcome = "timeout" if rc is None else "signal %d" % -rc if rc < 0 else "exit %d" % rc
