@@ -513,6 +513,23 @@ TEST_CASE("64-bit labels outside int32 name the file and the voxel", "[io]") {
     CHECK(message.find("(2, 4, 1)") != std::string::npos);
 }
 
+TEST_CASE("voxels over 100 times longer one way than another are refused", "[io]") {
+    // The malformed-input campaign (issue 21): 0.0001 x 1 x 1 mm made remesh fail with exit 1
+    // (a sheet thinner than any surface size); 100:1 meshes.
+    const std::string dir = frontmesh::fixtures::temp_dir("io_aspect");
+    Grid grid;
+    grid.spacing = {0.001, 1.0, 1.0};
+    const std::string path = dir + "/sheet.mha";
+    write_image(make_image<unsigned char>(grid, as_value).GetPointer(), path);
+    check_refused(path, ImageReadOptions{}, path,
+                  {"0.001 x 1 x 1 mm", "1000 times", "at most 100"});
+    ImageReadOptions fixed;
+    fixed.spacing = Eigen::Vector3d(0.01, 1.0, 1.0);  // 100:1 is read
+    CHECK(read_label_image(path, fixed).spacing.x() == 0.01);
+    fixed.spacing = Eigen::Vector3d(1.0, 1.0, 101.0);
+    check_refused(path, fixed, path, {"(input.spacing)", "101 times"});
+}
+
 TEST_CASE("unreadable inputs throw InputError naming the path", "[io]") {
     const std::string dir = frontmesh::fixtures::temp_dir("io_errors");
 
