@@ -5,9 +5,9 @@
 #   scripts/sanitize.sh [CTEST ARGS]   the whole suite (about an hour on 2 cores), e.g. -R io:
 #   scripts/sanitize.sh --ci           what .ci/run runs after scripts/test.sh: the core, io,
 #                                      surface and volume tests (the readers, predicates,
-#                                      kernels and meshing stages) but for the two that
-#                                      extract the whole AAL atlas (200 s under ASan; the io
-#                                      tests read it); all the pipeline tests (the command
+#                                      kernels and meshing stages; the two that extract the
+#                                      whole AAL atlas beside the fuzz run); all the
+#                                      pipeline tests (the command
 #                                      line, recipes, output folders, bad input,
 #                                      interruptions, end-to-end runs, clients); one torture
 #                                      seed per family and the tetra regression surfaces;
@@ -85,9 +85,23 @@ else
   (cd build-san && ctest --output-on-failure -j"$(nproc)" -LE asan-slow "$@")
 fi
 if ((ci)); then
+  # The two tests that extract the whole AAL atlas (about 200 s under ASan) run beside the
+  # fuzz run, which takes one core.
+  (cd build-san && ctest --output-on-failure -R '^surface:extract: AAL atlas') \
+    > build-san/tests/aal-extract.log 2>&1 &
+  aal=$!
   # A fixed seed (fuzz.sh: a finding's input is printed into the log, to be replayed).
+  fuzz_failed=0
   FRONTMESH_FUZZ_SEED=${FRONTMESH_FUZZ_SEED:-1} bash scripts/fuzz.sh build-san \
-    "${FRONTMESH_FUZZ_SECONDS:-25}"
+    "${FRONTMESH_FUZZ_SECONDS:-25}" || fuzz_failed=1
+  aal_failed=0
+  wait "$aal" || aal_failed=1
+  tail -n 3 build-san/tests/aal-extract.log
+  if ((aal_failed)); then
+    cat build-san/tests/aal-extract.log
+    exit 1
+  fi
+  ((fuzz_failed == 0)) || exit 1
 else
   bash scripts/fuzz.sh build-san "${FRONTMESH_FUZZ_SECONDS:-25}"
 fi
