@@ -940,6 +940,15 @@ void check_metaimage(const std::string& path, const std::string& file, const Hea
                     path, "MetaImage header: " + spacing->first + " value " + std::to_string(d + 1),
                     values[d]);
     }
+    // The other number lists MetaIO parses: a value it cannot read (ElementSize = nan 1 1)
+    // made it print four lines of its own and lose the rest of the header (the malformed-
+    // input campaign, issue 21). ElementSize is the spacing when ElementSpacing is absent.
+    for (const char* name : {"ElementSize", "CenterOfRotation"})
+        if (const auto it = keys.find(name); it != keys.end())
+            header.require_finite(name, header.numbers(name, it->second, ndims));
+    for (const char* name : {"ElementMin", "ElementMax"})
+        if (const auto it = keys.find(name); it != keys.end())
+            header.require_finite(name, header.numbers(name, it->second, 1));
     // MetaIO reads these names as one field; given twice it misreads the header (a NaN in
     // the second went unchecked, and MetaIO printed four lines of its own).
     auto one_of = [&](std::initializer_list<const char*> names) {

@@ -1068,6 +1068,11 @@ TEST_CASE("compressed and text data are counted against the header before alloca
         write_bytes(path, with_line(bytes, "ElementSpacing", "ElementSpacing = 1 1 1 1"));
         check_refused(path, ImageReadOptions{}, path,
                       {"ElementSpacing '1 1 1 1' has 4 values; expected 3"});
+        // A number MetaIO cannot read in another list: it printed four lines and lost the
+        // rest of the header.
+        write_bytes(path, with_line(bytes, "ElementSpacing",
+                                    "ElementSpacing = 1 1 1\nElementSize = nan 1 1"));
+        check_refused(path, ImageReadOptions{}, path, {"ElementSize value 1 'nan'"});
         // Two names of one field: MetaIO misread the header, the second went unchecked.
         write_bytes(
             path, with_line(bytes, "ElementSpacing", "ElementSpacing = 1 1 1\nPosition = nan 0 0"));
