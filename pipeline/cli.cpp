@@ -3,6 +3,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <iostream>
@@ -131,6 +132,9 @@ Arguments parse(int argc, char** argv) {
     auto value = [&](std::size_t& i) -> std::string {
         if (i + 1 >= args.size())
             FM_THROW(InputError, args[i] + ": needs a value (see frontmesh --help)");
+        // `--until ''` ran every stage as if no --until were given.
+        if (args[i + 1].empty())
+            FM_THROW(InputError, args[i] + ": an empty value (see frontmesh --help)");
         return args[++i];
     };
     for (std::size_t i = 0; i < args.size(); ++i) {
@@ -402,6 +406,30 @@ int run_convert_command(const Arguments& args) {
 
 }  // namespace
 
+// A message printed as one line whatever it quotes: control characters (a newline inside
+// a command name or a file name) are shown escaped (an unknown command "run\n" printed two
+// lines; the malformed-input campaign, issue 21).
+std::string one_line(const std::string& text) {
+    std::string out;
+    for (const char c : text) {
+        const auto u = static_cast<unsigned char>(c);
+        if (c == '\n') {
+            out += "\\n";
+        } else if (c == '\r') {
+            out += "\\r";
+        } else if (c == '\t') {
+            out += "\\t";
+        } else if (u < 0x20 || u == 0x7f) {
+            char hex[8];
+            std::snprintf(hex, sizeof hex, "\\x%02x", u);
+            out += hex;
+        } else {
+            out += c;
+        }
+    }
+    return out;
+}
+
 int run_cli(int argc, char** argv) {
     for (int i = 1; i < argc; ++i) {
         if (!std::strcmp(argv[i], "--help") || !std::strcmp(argv[i], "-h") ||
@@ -477,16 +505,16 @@ int run_cli(int argc, char** argv) {
         }
         return run_and_report(recipe, run_options(args));
     } catch (const core::InputError& e) {
-        std::cerr << "frontmesh: error: " << e.what() << '\n';
+        std::cerr << "frontmesh: error: " << one_line(e.what()) << '\n';
         return 2;
     } catch (const core::CancelledError& e) {
-        std::cerr << "frontmesh: " << e.what() << '\n';
+        std::cerr << "frontmesh: " << one_line(e.what()) << '\n';
         return 130;  // as a shell reports a process ended by SIGINT
     } catch (const core::Error& e) {
-        std::cerr << "frontmesh: error: " << e.what() << '\n';
+        std::cerr << "frontmesh: error: " << one_line(e.what()) << '\n';
         return 1;
     } catch (const std::exception& e) {
-        std::cerr << "frontmesh: internal error: " << e.what() << '\n';
+        std::cerr << "frontmesh: internal error: " << one_line(e.what()) << '\n';
         return 1;
     }
 }

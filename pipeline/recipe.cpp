@@ -404,6 +404,14 @@ void apply_key(const std::string& key, const YAML::Node& value, Recipe& recipe,
     for (const auto& spec : key_specs())
         if (spec.path == key) {
             if (value.IsNull() && spec.default_yaml == "null") {  // explicit "not set"
+                // It unsets what the file gave: `--set input.threshold=null` was recorded as
+                // null while the file's threshold stayed in effect (`--set input.image=`
+                // meshed the file's image; the malformed-input campaign, issue 21).
+                if (key == "input.image") recipe.input.image.clear();
+                if (key == "input.surface") recipe.input.surface.clear();
+                if (key == "input.threshold") recipe.input.threshold.reset();
+                if (key == "input.spacing") recipe.input.spacing.reset();
+                if (key == "input.label_names") recipe.input.label_names.clear();
                 record_value(recipe, key, value);
                 return;
             }

@@ -1068,6 +1068,14 @@ TEST_CASE("compressed and text data are counted against the header before alloca
         write_bytes(path, with_line(bytes, "ElementSpacing", "ElementSpacing = 1 1 1 1"));
         check_refused(path, ImageReadOptions{}, path,
                       {"ElementSpacing '1 1 1 1' has 4 values; expected 3"});
+        // A HeaderSize beyond attached data: MetaIO read nothing (campaign seed 4); one
+        // inside the header would read header text as voxels.
+        write_bytes(path, with_line(bytes, "ElementSpacing",
+                                    "ElementSpacing = 1 1 1\nHeaderSize = 100000"));
+        check_refused(path, ImageReadOptions{}, path, {"truncated"});
+        write_bytes(path,
+                    with_line(bytes, "ElementSpacing", "ElementSpacing = 1 1 1\nHeaderSize = 20"));
+        check_refused(path, ImageReadOptions{}, path, {"HeaderSize 20 points inside the header"});
         // A number MetaIO cannot read in another list: it printed four lines and lost the
         // rest of the header.
         write_bytes(path, with_line(bytes, "ElementSpacing",

@@ -286,3 +286,18 @@ TEST_CASE("validate checks an image's labels and the work they ask for, as a run
     CHECK(r.exit_code == 0);
     CHECK_FALSE(fs::exists(fs::path(dir) / "out"));
 }
+
+TEST_CASE("an error is one line whatever it quotes, and a flag's empty value is refused",
+          "[pipeline]") {
+    // Campaign seed 4 (issue 21): an unknown command "run\n" printed two lines, and
+    // `--until ''` ran every stage as if no --until were given.
+    const std::string dir = phantom_dir("one_line");
+    auto r = run_frontmesh("'run\n' recipe.yaml", dir);
+    CHECK(r.exit_code == 2);
+    CHECK_THAT(r.err, Catch::StartsWith("frontmesh: error: run\\n: unknown command"));
+    CHECK(std::count(r.err.begin(), r.err.end(), '\n') == 1);
+    r = run_frontmesh("run recipe.yaml --until ''", dir);
+    CHECK(r.exit_code == 2);
+    CHECK_THAT(r.err, Catch::Contains("--until: an empty value"));
+    CHECK_FALSE(fs::exists(fs::path(dir) / "out"));
+}

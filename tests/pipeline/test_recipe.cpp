@@ -190,6 +190,17 @@ TEST_CASE("recipe errors: one line naming file, line and key", "[pipeline]") {
         CHECK(error_of("input:\n  image: ball.mha\nremesh:\n  edge_length: &h 2\ntetra:\n"
                        "  max_edge_length: *h\n") == "");
     }
+    SECTION("a --set of null unsets what the file gave") {
+        // `--set input.image=` meshed the file's image, recorded as null (campaign seed 4).
+        CHECK_THAT(error_of("input:\n  image: ball.mha\n", {"input.image="}),
+                   Catch::Contains("exactly one of input.image or input.surface"));
+        const std::string dir = fixtures::temp_dir("recipe_unset");
+        fixtures::write_metaimage(fixtures::sphere_image(8, 2.0), dir + "/ball.mha");
+        write_file(dir + "/r.yaml", "input:\n  image: ball.mha\n  threshold: 0.5\n");
+        CHECK(pipeline::load_recipe(dir + "/r.yaml").input.threshold == 0.5);
+        CHECK_FALSE(pipeline::load_recipe(dir + "/r.yaml", {"input.threshold=null"})
+                        .input.threshold.has_value());
+    }
     SECTION("a valid recipe has no error") { CHECK(error_of("input:\n  image: ball.mha\n") == ""); }
 }
 
