@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -511,9 +512,55 @@ private:
     std::size_t total_ = 0;
 };
 
+// YAML text is Unicode, and yaml-cpp takes any bytes: a recipe whose output.dir held
+// random bytes ran and wrote a folder of that name (campaign seed 5, issue 21). Refused
+// naming the line and the first byte that is not UTF-8 (overlong forms, surrogates and
+// code points beyond U+10FFFF included).
+void require_utf8(const std::string& text, const std::string& origin, bool with_lines) {
+    std::size_t line = 1, i = 0;
+    const std::size_t n = text.size();
+    while (i < n) {
+        const auto c = static_cast<unsigned char>(text[i]);
+        std::size_t extra = 0;
+        std::uint32_t cp = 0;
+        if (c < 0x80) {
+            if (c == '\n') ++line;
+            ++i;
+            continue;
+        }
+        if (c >= 0xc2 && c <= 0xdf) {
+            extra = 1;
+            cp = c & 0x1fu;
+        } else if (c >= 0xe0 && c <= 0xef) {
+            extra = 2;
+            cp = c & 0x0fu;
+        } else if (c >= 0xf0 && c <= 0xf4) {
+            extra = 3;
+            cp = c & 0x07u;
+        }
+        bool ok = extra > 0 && i + extra < n;
+        for (std::size_t k = 1; ok && k <= extra; ++k) {
+            const auto t = static_cast<unsigned char>(text[i + k]);
+            ok = (t & 0xc0u) == 0x80u;
+            cp = (cp << 6) | (t & 0x3fu);
+        }
+        ok = ok && !(extra == 2 && (cp < 0x800 || (cp >= 0xd800 && cp <= 0xdfff))) &&
+             !(extra == 3 && (cp < 0x10000 || cp > 0x10ffff));
+        if (!ok) {
+            char byte[8];
+            std::snprintf(byte, sizeof byte, "0x%02x", c);
+            FM_THROW(InputError, (with_lines ? origin + ":" + std::to_string(line) : origin) +
+                                     ": not UTF-8 text (byte " + byte +
+                                     "); a YAML recipe is UTF-8");
+        }
+        i += extra + 1;
+    }
+}
+
 // YAML::Load after the size check above. `origin` the recipe's path (errors name its line)
 // or "--set KEY".
 YAML::Node load_yaml(const std::string& text, const std::string& origin, bool with_lines) {
+    require_utf8(text, origin, with_lines);
     try {
         std::istringstream in(text);
         YAML::Parser parser(in);

@@ -3431,7 +3431,9 @@ def keep_finding(args, res):
                     pass
         else:
             shutil.copy2(src, dst)
-    with open(os.path.join(dst, "FINDING.txt"), "w") as f:
+    # errors="backslashreplace": a file name of undecodable bytes (surrogate escapes) in a
+    # violation ended the campaign with UnicodeEncodeError.
+    with open(os.path.join(dst, "FINDING.txt"), "w", errors="backslashreplace") as f:
         f.write("case: %s [%s]\n%s\nexpect: %s, outcome: %s\n" % (
             res["id"], res["class"], res["desc"], res["expect"], res["outcome"]))
         for v in res["violations"]:
@@ -3442,6 +3444,7 @@ def keep_finding(args, res):
 
 
 def main():
+    sys.stdout.reconfigure(errors="backslashreplace")  # undecodable file names in FAIL lines
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--scale", type=float, default=1.0, help="cases per class times this")

@@ -190,6 +190,21 @@ TEST_CASE("recipe errors: one line naming file, line and key", "[pipeline]") {
         CHECK(error_of("input:\n  image: ball.mha\nremesh:\n  edge_length: &h 2\ntetra:\n"
                        "  max_edge_length: *h\n") == "");
     }
+    SECTION("a recipe is UTF-8 text") {
+        // Campaign seed 5 (issue 21): random bytes in output.dir made a folder of that name.
+        CHECK_THAT(error_of("input:\n  image: ball.mha\noutput:\n  dir: ou\xef*\xdb\xd9\n"),
+                   Catch::Contains("r.yaml:4: not UTF-8 text (byte 0xef)"));
+        CHECK_THAT(error_of("input:\n  image: ball.mha\n  labels: [1] # \xed\xa0\x80\n"),
+                   Catch::Contains("r.yaml:3: not UTF-8"));  // a surrogate
+        CHECK_THAT(error_of("input:\n  image: ball.mha\n", {"output.dir=a\xc0\xaf"
+                                                            "b"}),
+                   Catch::Contains("--set output.dir: not UTF-8"));  // an overlong '/'
+        CHECK(error_of("input:\n  image: ball.mha\noutput:\n  dir: "
+                       "\xc3\x9c"
+                       "n"
+                       "\xc3\xaf"
+                       "c\xf0\x9f\x98\x80\n") == "");
+    }
     SECTION("a --set of null unsets what the file gave") {
         // `--set input.image=` meshed the file's image, recorded as null (campaign seed 4).
         CHECK_THAT(error_of("input:\n  image: ball.mha\n", {"input.image="}),
