@@ -611,10 +611,14 @@ void apply_sections(const YAML::Node& root, const std::string& path, Recipe& rec
     for (const auto& section : root) {
         const std::string origin = origin_of(path, section.first);
         const std::string name = key_name(section.first, origin);
+        bool known = false;
+        for (const auto& spec : key_specs()) known |= spec.path.rfind(name + ".", 0) == 0;
+        // A section holding keys names its first key (with a suggestion for the pair);
+        // an empty one itself: `label_edge_length: {}` at the top was accepted (campaign
+        // seed 5, issue 21).
+        if (!known && (!section.second.IsMap() || section.second.size() == 0))
+            unknown_key(name, origin);
         if (!section.second.IsMap()) {
-            bool known = false;
-            for (const auto& spec : key_specs()) known |= spec.path.rfind(name + ".", 0) == 0;
-            if (!known) unknown_key(name, origin);
             FM_THROW(InputError, origin + ": " + name + ": expected a section of keys, got " +
                                      describe(section.second));
         }

@@ -190,6 +190,10 @@ TEST_CASE("recipe errors: one line naming file, line and key", "[pipeline]") {
         CHECK(error_of("input:\n  image: ball.mha\nremesh:\n  edge_length: &h 2\ntetra:\n"
                        "  max_edge_length: *h\n") == "");
     }
+    SECTION("an unknown section, also an empty one") {
+        CHECK_THAT(error_of("input:\n  image: ball.mha\nlabel_edge_length: {}\n"),
+                   Catch::Contains("r.yaml:3") && Catch::Contains("label_edge_length"));
+    }
     SECTION("a recipe is UTF-8 text") {
         // Campaign seed 5 (issue 21): random bytes in output.dir made a folder of that name.
         CHECK_THAT(error_of("input:\n  image: ball.mha\noutput:\n  dir: ou\xef*\xdb\xd9\n"),
