@@ -66,12 +66,13 @@ if ((ci)); then
   # (65 s) and the two tetra regression surfaces (69 s of CPU). The normal build runs the
   # larger subset and the remesh regression (over 300 s under ASan), the full run all.
   python=/usr/bin/python3
+  # (Absolute paths: run.py runs each case in its own folder.)
   "$python" tests/torture/run.py --seeds 0-7 -j 1 --timeout 600 \
-    --frontmesh build-san/pipeline/frontmesh --out build-san/tests/torture \
+    --frontmesh "$PWD/build-san/pipeline/frontmesh" --out "$PWD/build-san/tests/torture" \
     > build-san/tests/torture.log 2>&1 &
   first=$!
   "$python" tests/torture/regressions.py --only 'tetra-*' --timeout 600 \
-    --frontmesh build-san/pipeline/frontmesh --out build-san/tests/regressions \
+    --frontmesh "$PWD/build-san/pipeline/frontmesh" --out "$PWD/build-san/tests/regressions" \
     > build-san/tests/regressions.log 2>&1 &
   second=$!
   wait "$first" || failed=1
