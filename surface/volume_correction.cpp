@@ -26,9 +26,13 @@ std::vector<double> region_volumes(const core::SurfaceNetwork& s, const std::vec
     for (int i : index_in) n = std::max(n, i + 1);
     for (int i : index_out) n = std::max(n, i + 1);
     std::vector<double> volume(static_cast<std::size_t>(n), 0.0);
+    // From a vertex, not the origin (core::enclosed_volume says why).
+    const Eigen::Vector3d o =
+        s.vertex_count() > 0 ? Eigen::Vector3d(s.point(0)) : Eigen::Vector3d::Zero();
     for (std::size_t f = 0; f < s.face_count(); ++f) {
         const auto& t = s.faces[f];
-        const double v = s.point(t[0]).dot(s.point(t[1]).cross(s.point(t[2]))) / 6.0;
+        const double v =
+            (s.point(t[0]) - o).dot((s.point(t[1]) - o).cross(s.point(t[2]) - o)) / 6.0;
         if (index_in[f] >= 0) volume[static_cast<std::size_t>(index_in[f])] += v;
         if (index_out[f] >= 0) volume[static_cast<std::size_t>(index_out[f])] -= v;
     }

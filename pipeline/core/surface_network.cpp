@@ -35,7 +35,12 @@ std::vector<Label> region_labels(const SurfaceNetwork& surface) {
 }
 
 double enclosed_volume(const SurfaceNetwork& surface, Label region) {
-    // Divergence theorem: V = sum over outward faces of (a . (b x c)) / 6.
+    // Divergence theorem: V = sum over outward faces of (a . (b x c)) / 6, the points taken
+    // from a vertex of the surface (any point gives the same V for a closed boundary): from
+    // the origin, terms of |x|^3 cancelled, and an image 900 m from its origin gave a
+    // region of -150 mm^3 (exit 1 in repair; the malformed-input campaign, issue 21).
+    const Eigen::Vector3d o =
+        surface.vertex_count() > 0 ? Eigen::Vector3d(surface.point(0)) : Eigen::Vector3d::Zero();
     double six_v = 0.0;
     for (std::size_t f = 0; f < surface.face_count(); ++f) {
         const double sign = surface.region_in[f] == region    ? 1.0
@@ -43,7 +48,9 @@ double enclosed_volume(const SurfaceNetwork& surface, Label region) {
                                                               : 0.0;
         if (sign == 0.0) continue;
         const auto& t = surface.faces[f];
-        six_v += sign * surface.point(t[0]).dot(surface.point(t[1]).cross(surface.point(t[2])));
+        six_v +=
+            sign *
+            (surface.point(t[0]) - o).dot((surface.point(t[1]) - o).cross(surface.point(t[2]) - o));
     }
     return six_v / 6.0;
 }
