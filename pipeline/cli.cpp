@@ -393,6 +393,14 @@ int run_convert_command(const Arguments& args) {
     io::MeshReadInfo info;
     core::require_input_file(args.recipe, "convert: ");  // stat first: a pipe would block
     const core::TetMesh mesh = io::read_mesh(args.recipe, &names, &info);
+    // The exports number regions from 1 (Gmsh physical groups, Abaqus and FEBio sets): a
+    // region of -3 ended in an internal check of the FEBio writer (exit 1; campaign seed 7,
+    // issue 21). `check` reports such a mesh as invalid; convert refuses it.
+    for (std::size_t t = 0; t < mesh.tet_count(); ++t)
+        if (mesh.region[t] <= 0)
+            FM_THROW(InputError, "'" + args.recipe + "': tet " + std::to_string(t) +
+                                     " has region " + std::to_string(mesh.region[t]) +
+                                     "; a region is a positive label");
     if (!args.labels.empty()) {
         const io::LabelTable table = io::read_label_table(args.labels);
         for (const auto& [label, name] : table.names()) names.set(label, name);

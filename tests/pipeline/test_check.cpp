@@ -262,6 +262,18 @@ TEST_CASE("frontmesh check and convert on the command line", "[pipeline][check]"
                    Catch::StartsWith("frontmesh: error: ") && Catch::Contains("damaged.vtu"));
         CHECK(std::count(r.err.begin(), r.err.end(), '\n') == 1);
     }
+    {
+        // A region that is no positive label: an internal check of the FEBio writer, exit 1
+        // (campaign seed 7, issue 21); convert refuses it.
+        core::TetMesh negative = mesh;
+        for (auto& region : negative.region) region = -region;
+        io::write_mesh(negative, dir + "/negative.vtu", io::MeshFormat::Vtu, {});
+        r = run_frontmesh("convert negative.vtu negative.feb", dir);
+        INFO(r.err);
+        CHECK(r.exit_code == 2);
+        CHECK_THAT(r.err, Catch::Contains("negative.vtu': tet 0 has region -"));
+        CHECK_FALSE(fs::exists(fs::path(dir) / "negative.feb"));
+    }
     r = run_frontmesh("check missing.msh", dir);
     CHECK(r.exit_code == 2);
     CHECK_THAT(r.err, Catch::Contains("missing.msh"));
