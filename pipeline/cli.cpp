@@ -333,6 +333,7 @@ void validate_surface_input(const Recipe& recipe, const std::string& from,
     if (from == "refine") return;  // the run reads its 04-tetra checkpoint instead
     if (from == "tetra") {
         core::require_meshable_surface(surface, source);
+        core::require_tetra_ready_faces(surface, source);
         require_within_memory_limit(tetra_estimate(surface, recipe.tetra),
                                     recipe.limits.max_memory_gib);
         return;

@@ -607,7 +607,10 @@ void Run::read_input() {
             stages_[entry_].in == Kind::Surface && stages_[entry_].out == Kind::Tets;
         if (to_tets || stages_[entry_].name == "remesh")
             core::require_meshable_surface(surface, user_surface());
-        if (to_tets) warn_obtuse_triangles(surface);
+        if (to_tets) {
+            core::require_tetra_ready_faces(surface, user_surface());
+            warn_obtuse_triangles(surface);
+        }
     } else {
         info("reading checkpoint " + out_.checkpoint(stages_[first_ - 1]).string());
         data_ = read_checkpoint(out_.checkpoint(stages_[first_ - 1]), stages_[first_ - 1].out);

@@ -174,4 +174,35 @@ void require_meshable_surface(const SurfaceNetwork& surface, const std::string& 
     }
 }
 
+// A tet on face f has at most the volume A_f * L_f / 3 (A_f its area, L_f its longest edge:
+// the front puts no apex farther away than that), and the tets of a mesh whose surface edges
+// average l have a mean volume of at least about l^3 / 8.5 (the regular tet of edge l; the
+// interior ones grow with alpha). The referee calls a tet degenerate below 1e-12 of the mean
+// volume (meshcheck.py), so a face whose best tet stays under 1e-10 of l^3 / 8.5 cannot be
+// kept by tetra: it is refused here, with a margin of 100. Cost O(faces).
+void require_tetra_ready_faces(const SurfaceNetwork& surface, const std::string& source) {
+    double edge_sum = 0.0;
+    for (const auto& t : surface.faces)
+        for (int i = 0; i < 3; ++i)
+            edge_sum += (surface.point(t[(i + 1) % 3]) - surface.point(t[i])).norm();
+    const double mean_edge = edge_sum / (3.0 * static_cast<double>(surface.face_count()));
+    const double floor_volume = 1e-10 * mean_edge * mean_edge * mean_edge / 8.5;
+    for (std::size_t f = 0; f < surface.face_count(); ++f) {
+        const auto& t = surface.faces[f];
+        const Eigen::Vector3d a = surface.point(t[0]), b = surface.point(t[1]),
+                              c = surface.point(t[2]);
+        const double area = 0.5 * (b - a).cross(c - a).norm();
+        const double longest = std::max({(b - a).norm(), (c - b).norm(), (a - c).norm()});
+        if (area * longest / 3.0 >= floor_volume) continue;
+        std::ostringstream w;
+        w.precision(3);
+        w << "face " << f << " (region " << surface.region_in[f] << ") " << near(a)
+          << " is too small or too flat for a tet: area " << area << " mm^2, longest edge "
+          << longest << " mm, against a mean edge of " << mean_edge
+          << " mm, so every tet on it would be degenerate (tetra keeps each given triangle; "
+             "--from remesh remeshes the surface first)";
+        defect(source, w.str());
+    }
+}
+
 }  // namespace frontmesh::core

@@ -50,4 +50,10 @@ std::optional<BoundaryDefect> first_boundary_defect(const SurfaceNetwork& surfac
 /// Cost: O(n log n), dominated by the self-intersection search (about 2 s per million faces).
 void require_meshable_surface(const SurfaceNetwork& surface, const std::string& source);
 
+/// What tetra needs beyond a meshable surface, since it keeps every given triangle: throws
+/// InputError naming the first face (in id order) on which every tet would be degenerate to
+/// the referee (best tet volume A * L / 3 under 1e-10 of the regular tet of the surface's
+/// mean edge: a nearly collinear or a tiny triangle). Cost O(faces).
+void require_tetra_ready_faces(const SurfaceNetwork& surface, const std::string& source);
+
 }  // namespace frontmesh::core

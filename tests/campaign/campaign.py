@@ -358,7 +358,10 @@ def ply_text(pts, faces, binary=False, nv=None, nf=None, index_type="int"):
     for p in pts:
         b += struct.pack("<3f", *p)
     letter = {"int": "i", "uint": "I", "short": "h", "uchar": "B", "int32": "i"}[index_type]
+    bits = {"I": 32, "B": 8}.get(letter)
     for f in faces:
+        # an unsigned index type writes a negative index as its two's complement (huge)
+        f = [v % (1 << bits) for v in f] if bits else f
         b += struct.pack("<B", len(f)) + struct.pack("<%d%s" % (len(f), letter), *f)
     return bytes(b)
 
@@ -473,7 +476,7 @@ def msh22(pts, tets, regions, nn=None, ne=None):
 
 
 def msh41(pts, tets, regions):
-    labs = sorted(set(regions))
+    labs = sorted(set(regions)) or [1]  # no tets: one empty entity
     out = ["$MeshFormat", "4.1 0 8", "$EndMeshFormat", "$Entities", "0 0 0 %d" % len(labs)]
     out += ["%d 0 0 0 1 1 1 1 %d 0" % (r, r) for r in labs]
     out += ["$EndEntities", "$Nodes", "1 %d 1 %d" % (len(pts), len(pts)),

@@ -127,3 +127,33 @@ TEST_CASE("each defect of a user's surface is named with its region and place",
         require_defect(s, "intersect");
     }
 }
+
+// tetra keeps every given triangle: a face on which every tet would be degenerate to the
+// referee is refused before tetra (campaign seed 8: a nearly collinear face, area 1e-15 mm^2,
+// gave exit 0 and a mesh meshcheck called INVALID). A point put into one face of an
+// octahedron at distance d from a corner makes two faces of height about d.
+TEST_CASE("a face too flat or too small for any tet is refused for tetra",
+          "[core][surface_check]") {
+    auto with_point_near_corner = [](double d) {
+        SurfaceNetwork s = frontmesh::fixtures::octahedron(2.0);
+        const auto [a, b, c] = s.faces[0];
+        const Eigen::Vector3d p =
+            s.point(a) + d * ((s.point(b) + s.point(c)) / 2.0 - s.point(a)).normalized();
+        const auto q = static_cast<std::int32_t>(s.vertex_count());
+        s.add_vertex(p);
+        s.faces[0] = {a, b, q};
+        s.add_face(b, c, q, s.region_in[0], s.region_out[0]);
+        s.add_face(c, a, q, s.region_in[0], s.region_out[0]);
+        return s;
+    };
+    using frontmesh::core::require_tetra_ready_faces;
+    const SurfaceNetwork fine = with_point_near_corner(1e-3);
+    CHECK_NOTHROW(require_meshable_surface(fine, "in.vtp"));
+    CHECK_NOTHROW(require_tetra_ready_faces(fine, "in.vtp"));
+    const SurfaceNetwork flat = with_point_near_corner(1e-12);
+    CHECK_NOTHROW(require_meshable_surface(flat, "in.vtp"));  // exact: not collinear
+    CHECK_THROWS_AS(require_tetra_ready_faces(flat, "in.vtp"), InputError);
+    CHECK_THROWS_WITH(require_tetra_ready_faces(flat, "in.vtp"),
+                      Contains("in.vtp: face") && Contains("too small or too flat") &&
+                          Contains("region 1") && !Contains("\n"));
+}
