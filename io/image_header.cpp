@@ -852,6 +852,60 @@ void check_meta_pattern_files(const std::string& path, const std::string& header
     }
 }
 
+/// "ElementDataFile = LIST [SUBDIM]": the lines after the header name one file each, one
+/// per slice of SUBDIM dimensions (MetaIO takes a missing, zero or too large SUBDIM as
+/// NDims - 1). MetaIO skips a name it cannot open and reads up to 1,023 characters per line,
+/// stopping silently at the end of the file: any of these left the image's slices unread,
+/// and a header followed by binary data made a mesh of garbage (campaign seed 10, issue 21).
+/// So the names must be as many as the slices, text, and each a regular file holding, when
+/// raw (`raw_bytes`), a slice's bytes. Bounded by the slice count (the image's memory limit
+/// bounds it) and the 1,023 characters per line.
+void check_meta_list(const std::string& path, const std::string& header_file, std::istream& in,
+                     const TextHeader& header, const std::vector<std::string>& tokens,
+                     const std::vector<std::uint64_t>& counted, std::size_t ndims,
+                     std::uint64_t voxel_bytes, bool raw_bytes) {
+    std::size_t subdim = ndims - 1;
+    if (tokens.front() != "LIST" || tokens.size() > 2)
+        header.fail(
+            "ElementDataFile starts with LIST, which MetaIO reads as a list of files; "
+            "expected 'LIST' or 'LIST SUBDIM', not " +
+            std::to_string(tokens.size()) + " word(s) starting '" + tokens.front().substr(0, 40) +
+            "'");
+    if (tokens.size() == 2) {
+        std::string dim = tokens[1];
+        if (!dim.empty() && (dim.back() == 'D' || dim.back() == 'd')) dim.pop_back();
+        subdim = static_cast<std::size_t>(header.integer("ElementDataFile LIST SUBDIM", dim, 0,
+                                                         static_cast<std::int64_t>(ndims)));
+        if (subdim == 0) subdim = ndims - 1;
+    }
+    std::uint64_t files = 1, slice_bytes = voxel_bytes;
+    for (std::size_t d = 0; d < ndims; ++d) (d < subdim ? slice_bytes : files) *= counted[d];
+    for (std::size_t d = ndims; d < counted.size(); ++d) slice_bytes *= counted[d];  // channels
+    for (std::uint64_t i = 0; i < files; ++i) {
+        const std::string which =
+            "ElementDataFile LIST name " + std::to_string(i + 1) + " of " + std::to_string(files);
+        std::string name;
+        if (!std::getline(in, name)) header.fail(which + " is missing: the file ends before it");
+        if (name.size() > 1000)
+            header.fail(which + " is " + std::to_string(name.size()) +
+                        " characters long; at most 1000");
+        while (!name.empty() && (std::isspace(static_cast<unsigned char>(name.back())) != 0 ||
+                                 std::isprint(static_cast<unsigned char>(name.back())) == 0))
+            name.pop_back();
+        if (name.empty()) header.fail(which + " is an empty line");
+        for (const char ch : name)
+            if (std::isprint(static_cast<unsigned char>(ch)) == 0)
+                header.fail(which +
+                            " holds a byte that is no printable character; the names "
+                            "after LIST are text, one per line");
+        const std::string slice = beside(header_file, name);
+        require_regular_file(path, slice, "data file (ElementDataFile LIST)");
+        if (raw_bytes)
+            check_data_size(path, "data file '" + slice + "' (ElementDataFile LIST) ",
+                            file_size_of(slice), slice_bytes, "of the slice its header announces");
+    }
+}
+
 void check_metaimage(const std::string& path, const std::string& file, const HeaderLimits& limits) {
     const TextHeader header(path, file, "MetaImage", true);
     std::ifstream in(file, std::ios::binary);
@@ -1000,7 +1054,11 @@ void check_metaimage(const std::string& path, const std::string& file, const Hea
     std::vector<std::string> tokens;
     for (std::string token; data_tokens >> token;) tokens.push_back(token);
     // LIST and printf patterns ("slice%03d.raw 1 40 1") name one file per slice.
-    if (tokens.front() == "LIST") return;  // values are never empty (checked above)
+    if (tokens.front().rfind("LIST", 0) == 0) {  // values are never empty (checked above)
+        check_meta_list(path, file, in, header, tokens, counted, ndims, voxel_bytes,
+                        binary && !compressed);
+        return;
+    }
     if (data_name.find('%') != std::string::npos) {
         check_meta_pattern(header, tokens, extents);
         check_meta_pattern_files(path, file, tokens, extents, voxel_bytes, binary && !compressed);
