@@ -4,10 +4,12 @@
 
 #include <algorithm>
 #include <limits>
+#include <map>
 #include <set>
 #include <unordered_set>
 
 #include "pipeline/core/error.h"
+#include "pipeline/core/predicates.h"
 
 namespace frontmesh::surface::repair_detail {
 namespace {
@@ -78,7 +80,7 @@ LoopTriangulation triangulate_loop(const SurfaceNetwork& net, const std::vector<
 }
 
 struct HoleCounts {
-    std::size_t holes = 0, faces = 0, open_edges = 0, unavoidable = 0;
+    std::size_t holes = 0, faces = 0, open_edges = 0, unavoidable = 0, fans = 0;
 };
 
 /// One hole of one region: its vertices in the order the new faces follow (seen from the
@@ -165,6 +167,51 @@ std::vector<HoleLoop> trace_holes(const SurfaceNetwork& net, const Topology& top
     return loops;
 }
 
+/// The simple cycles of a closed loop that may pass a vertex more than once (two holes
+/// touching at a vertex, e.g. where faces around it were lost): walking the loop, a vertex
+/// met again closes the cycle since its last visit. Each cycle keeps the loop's direction, and
+/// together they use each of the loop's edges once. O(n log n).
+std::vector<std::vector<std::int32_t>> simple_cycles(const std::vector<std::int32_t>& loop) {
+    std::vector<std::vector<std::int32_t>> cycles;
+    std::vector<std::int32_t> path;
+    std::map<std::int32_t, std::size_t> at;  // vertex -> its index in path
+    for (std::size_t k = 0; k <= loop.size(); ++k) {
+        const std::int32_t v = loop[k % loop.size()];
+        if (const auto it = at.find(v); it != at.end()) {
+            const std::size_t from = it->second;
+            cycles.emplace_back(path.begin() + static_cast<std::ptrdiff_t>(from), path.end());
+            for (std::size_t q = from + 1; q < path.size(); ++q) at.erase(path[q]);
+            path.resize(from + 1);
+            continue;
+        }
+        at.emplace(v, path.size());
+        path.push_back(v);
+    }
+    return cycles;
+}
+
+/// No triangulation of a hole's border alone may avoid a flat triangle or an edge that exists
+/// already (four faces of the region on it: a non-manifold boundary the referee refuses;
+/// campaign seed 11, issue 21). A fan from a new vertex at the border's centroid makes only
+/// new edges; it is taken (appended to `fill`, true) when none of its triangles is flat. Its
+/// triangles may cross the surface, which the self-intersection step after this one mends
+/// like any other crossing.
+bool fan_fill(SurfaceNetwork& net, const std::vector<std::int32_t>& cycle, std::vector<Tri>& fill,
+              HoleCounts& counts) {
+    Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+    for (const std::int32_t v : cycle) centre += net.point(v);
+    centre /= static_cast<double>(cycle.size());
+    const std::size_t n = cycle.size();
+    for (std::size_t k = 0; k < n; ++k) {
+        const Eigen::Vector3d a = net.point(cycle[k]), b = net.point(cycle[(k + 1) % n]);
+        if (core::is_degenerate_triangle(a.data(), b.data(), centre.data())) return false;
+    }
+    const std::int32_t c = net.add_vertex(centre);
+    for (std::size_t k = 0; k < n; ++k) fill.push_back({cycle[k], cycle[(k + 1) % n], c});
+    ++counts.fans;
+    return true;
+}
+
 /// Fills one traced hole; new faces are appended, their edges recorded in `new_edges` and,
 /// per region they bound, in `new_region_edges`.
 void fill_hole(SurfaceNetwork& net, const Topology& topo, const HoleLoop& loop,
@@ -185,13 +232,26 @@ void fill_hole(SurfaceNetwork& net, const Topology& topo, const HoleLoop& loop,
                 if (contains(net.faces[static_cast<std::size_t>(g)], b)) return true;
         return new_edges.count(edge_key(a, b)) > 0;
     };
-    const LoopTriangulation tri = triangulate_loop(net, loop.vertices, edge_exists);
-    if (tri.bad >= LoopTriangulation::k_forbidden)
-        FM_THROW(GeometryError,
-                 "repair: region " + std::to_string(region) + ": cannot fill the hole of " +
-                     std::to_string(loop.vertices.size()) + " edges at " +
-                     describe_entry(net, loop.entries.front()) + " (its border touches itself)");
-    counts.unavoidable += tri.bad;
+    // The faces of the hole, as vertex triples in the loop's order.
+    std::vector<Tri> fill;
+    for (const std::vector<std::int32_t>& cycle : simple_cycles(loop.vertices)) {
+        if (cycle.size() < 3)
+            FM_THROW(GeometryError, "repair: region " + std::to_string(region) +
+                                        ": cannot fill the hole of " +
+                                        std::to_string(loop.vertices.size()) + " edges at " +
+                                        describe_entry(net, loop.entries.front()) +
+                                        " (its border runs along one edge forth and back)");
+        const LoopTriangulation tri = triangulate_loop(net, cycle, edge_exists);
+        if (tri.bad > 0 && fan_fill(net, cycle, fill, counts)) continue;
+        if (tri.bad >= LoopTriangulation::k_forbidden)
+            FM_THROW(GeometryError, "repair: region " + std::to_string(region) +
+                                        ": cannot fill the hole of " +
+                                        std::to_string(loop.vertices.size()) + " edges at " +
+                                        describe_entry(net, loop.entries.front()) +
+                                        " (its border touches itself)");
+        counts.unavoidable += tri.bad;
+        for (const auto& [i, m, j] : tri.triangles) fill.push_back({cycle[i], cycle[m], cycle[j]});
+    }
     // The new faces separate the region from the label most of the hole's border has on its
     // other side (ties: the smaller label).
     std::vector<Label> others;
@@ -211,8 +271,7 @@ void fill_hole(SurfaceNetwork& net, const Topology& topo, const HoleLoop& loop,
     }
     // Extract's convention for interfaces: region_in is the larger label.
     const bool region_is_in = other == 0 || region > other;
-    for (const auto& [i, m, j] : tri.triangles) {
-        const std::int32_t a = loop.vertices[i], b = loop.vertices[m], c = loop.vertices[j];
+    for (const auto& [a, b, c] : fill) {
         if (region_is_in)
             net.add_face(a, b, c, region, other);
         else
@@ -266,8 +325,12 @@ bool fill_holes(SurfaceNetwork& net, std::optional<Topology>& topo, const Repair
     }
     ctx.count("repair.filled_holes", static_cast<double>(counts.holes));
     ctx.count("repair.hole_faces", static_cast<double>(counts.faces));
+    ctx.count("repair.hole_fans", static_cast<double>(counts.fans));
     ctx.info("repair: filled " + std::to_string(counts.holes) + " holes with " +
              std::to_string(counts.faces) + " faces" +
+             (counts.fans > 0
+                  ? " (" + std::to_string(counts.fans) + " of them fanned from a new centre vertex)"
+                  : std::string()) +
              (params.fill_holes ? std::string()
                                 : " (repair.fill_holes is off: " +
                                       std::to_string(counts.open_edges) + " open edges left)"));

@@ -376,6 +376,33 @@ TEST_CASE("repair fills holes", "[surface]") {
         CHECK(core::enclosed_volume(out, 1) == Approx(v).epsilon(0.01));
         CHECK(core::enclosed_volume(out, 1) < v);  // the patch is flatter than the sphere
     }
+    SECTION("two holes touching at a vertex: each filled by itself") {
+        // Two faces of the fan around a vertex that share only the vertex: the border is
+        // one loop through the vertex twice. Filled as one loop it reused an edge (four faces
+        // on it, a non-manifold boundary; campaign seed 11, issue 21).
+        const std::int32_t centre = ring_vertex(n, 6, 3);
+        std::vector<std::size_t> fan;
+        for (std::size_t f = 0; f < s.face_count(); ++f)
+            if (std::find(s.faces[f].begin(), s.faces[f].end(), centre) != s.faces[f].end())
+                fan.push_back(f);
+        REQUIRE(fan.size() == 6);
+        const std::size_t first = fan[0];
+        std::size_t second = fan[0];
+        for (const std::size_t f : fan) {
+            int shared = 0;
+            for (std::int32_t x : s.faces[first])
+                for (std::int32_t y : s.faces[f]) shared += x == y;
+            if (shared == 1) second = f;
+        }
+        REQUIRE(second != first);
+        const SurfaceNetwork damaged =
+            without_faces(s, [&](std::size_t f) { return f == first || f == second; });
+        const SurfaceNetwork out = surface::repair(damaged, {}, ctx);
+        CHECK(counter(ctx, "repair.hole_faces") == 2);
+        require_closed_and_oriented(out);
+        CHECK(pinch_vertices(out) == 0);
+        CHECK(core::enclosed_volume(out, 1) == Approx(v).epsilon(1e-12));
+    }
     SECTION("a long curved strip: patched by minimum area, not by a fan") {
         // Column 0 between rings 3 and 10: a hole of 16 edges along a meridian (80 degrees).
         auto in_strip = [&](std::size_t f) {
