@@ -20,6 +20,46 @@
 
 namespace frontmesh::surface {
 
+namespace {
+
+/// Moves vertex v (of the faces `fan`, one closed fan) a tenth of the way towards the
+/// centroid of the fan's other vertices, halving the step (at most five times) while a face of
+/// the fan would turn over; a fan that turns over at every step keeps v where it is.
+void nudge_into_fan(core::SurfaceNetwork& net, std::int32_t v,
+                    const std::vector<std::int32_t>& fan) {
+    Eigen::Vector3d ring = Eigen::Vector3d::Zero();
+    std::size_t n = 0;
+    for (const std::int32_t f : fan)
+        for (const std::int32_t w : net.faces[static_cast<std::size_t>(f)])
+            if (w != v) {
+                ring += net.point(w);
+                ++n;
+            }
+    if (n == 0) return;
+    ring /= static_cast<double>(n);
+    const Eigen::Vector3d p = net.point(v);
+    auto normal = [&](std::int32_t f, const Eigen::Vector3d& at) {
+        Eigen::Vector3d x[3];
+        for (int i = 0; i < 3; ++i) {
+            const std::int32_t w = net.faces[static_cast<std::size_t>(f)][i];
+            x[i] = w == v ? at : net.point(w);
+        }
+        return Eigen::Vector3d((x[1] - x[0]).cross(x[2] - x[0]));
+    };
+    double t = 0.1;
+    for (int attempt = 0; attempt < 6; ++attempt, t *= 0.5) {
+        const Eigen::Vector3d q = p + t * (ring - p);
+        bool kept = true;
+        for (const std::int32_t f : fan) kept = kept && normal(f, q).dot(normal(f, p)) > 0.0;
+        if (kept) {
+            net.point(v) = q;
+            return;
+        }
+    }
+}
+
+}  // namespace
+
 using namespace repair_detail;
 
 namespace {
@@ -161,15 +201,22 @@ core::SurfaceNetwork repair(const core::SurfaceNetwork& input, const RepairParam
     check_self_intersections(net, params, ctx);
 
     std::size_t copies = 0;
-    for (const PinchSplit& split : splits)
+    for (const PinchSplit& split : splits) {
+        std::vector<std::int32_t> ids{split.vertex};
         for (std::size_t k = 1; k < split.fans.size(); ++k) {
             const Eigen::Vector3d p = net.point(split.vertex);
             const std::int32_t copy = net.add_vertex(p);
             for (std::int32_t f : split.fans[k])
                 for (std::int32_t& v : net.faces[static_cast<std::size_t>(f)])
                     if (v == split.vertex) v = copy;
+            ids.push_back(copy);
             ++copies;
         }
+        // Coincident copies still touch: remesh and tetra see their faces as crossing (two
+        // cubes sharing a corner ended in remesh with exit 1). Each copy moves into its own
+        // body, a tenth of the way to its fan's ring centroid.
+        for (std::size_t k = 0; k < ids.size(); ++k) nudge_into_fan(net, ids[k], split.fans[k]);
+    }
     ctx.count("repair.split_vertices", static_cast<double>(splits.size()));
     ctx.count("repair.kept_pinch_vertices", static_cast<double>(kept_pinches));
     ctx.count("repair.nonmanifold_edges", static_cast<double>(nonmanifold_edges));
@@ -179,6 +226,11 @@ core::SurfaceNetwork repair(const core::SurfaceNetwork& input, const RepairParam
     if (nonmanifold_edges > 0)
         ctx.warn("repair: " + std::to_string(nonmanifold_edges) +
                  " non-manifold edges (more than two faces of one region on an edge), kept");
+
+    // The referee needs the domain's outer boundary to be a 2-manifold; bodies touching along
+    // an edge cannot be split as a vertex can, so such a surface is bad input.
+    if (const auto defect = core::outer_boundary_defect(net))
+        FM_THROW(InputError, "repair: " + *defect);
 
     ctx.progress(0.9, "repair: verify");
     verify(net, params, ctx);

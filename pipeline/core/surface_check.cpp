@@ -3,7 +3,10 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <numeric>
+#include <optional>
 #include <sstream>
+#include <string>
 #include <tuple>
 #include <vector>
 
@@ -142,12 +145,92 @@ std::optional<BoundaryDefect> first_boundary_defect(const SurfaceNetwork& s) {
     return std::nullopt;
 }
 
+// The domain's outer boundary (the faces against label 0), as the referee sees it: every edge
+// with at most two of its faces, and the faces at each vertex one fan (linked through edges
+// with exactly two). Edges are sorted (vertex pairs); the fans are found by union-find over
+// each vertex's outer faces. Cost O(F log F).
+std::optional<std::string> outer_boundary_defect(const SurfaceNetwork& s) {
+    struct Use {
+        std::int32_t lo, hi;
+        std::int32_t face;
+        bool operator<(const Use& o) const {
+            return std::tie(lo, hi, face) < std::tie(o.lo, o.hi, o.face);
+        }
+    };
+    std::vector<Use> uses;
+    for (std::size_t f = 0; f < s.face_count(); ++f) {
+        if (s.region_out[f] != 0) continue;
+        for (int i = 0; i < 3; ++i) {
+            const std::int32_t a = s.faces[f][i], b = s.faces[f][(i + 1) % 3];
+            uses.push_back({std::min(a, b), std::max(a, b), static_cast<std::int32_t>(f)});
+        }
+    }
+    std::sort(uses.begin(), uses.end());
+    // Union-find over (face, corner) pairs would be exact; faces suffice here since a face
+    // belongs to one fan at each of its corners: link faces per shared manifold edge, then
+    // count the distinct roots among each vertex's faces.
+    std::vector<std::int32_t> parent(s.face_count());
+    std::iota(parent.begin(), parent.end(), 0);
+    auto find = [&](std::int32_t x) {
+        while (parent[static_cast<std::size_t>(x)] != x)
+            x = parent[static_cast<std::size_t>(x)] =
+                parent[static_cast<std::size_t>(parent[static_cast<std::size_t>(x)])];
+        return x;
+    };
+    std::vector<std::vector<std::pair<std::int32_t, std::int32_t>>> links(s.vertex_count());
+    for (std::size_t i = 0; i < uses.size();) {
+        std::size_t j = i;
+        while (j < uses.size() && uses[j].lo == uses[i].lo && uses[j].hi == uses[i].hi) ++j;
+        if (j - i > 2)
+            return "the outer boundary is not a manifold at edge (" + std::to_string(uses[i].lo) +
+                   ", " + std::to_string(uses[i].hi) + ") " +
+                   near(0.5 * (s.point(uses[i].lo) + s.point(uses[i].hi))) + ": " +
+                   std::to_string(j - i) +
+                   " faces against the outside meet there (bodies touching along an edge); "
+                   "no tet mesh of such a domain has a manifold boundary: separate or join "
+                   "the bodies";
+        if (j - i == 2) {
+            links[static_cast<std::size_t>(uses[i].lo)].emplace_back(uses[i].face,
+                                                                     uses[i + 1].face);
+            links[static_cast<std::size_t>(uses[i].hi)].emplace_back(uses[i].face,
+                                                                     uses[i + 1].face);
+        }
+        i = j;
+    }
+    // Per vertex: its outer faces linked through its own manifold edges form one fan.
+    std::vector<std::vector<std::int32_t>> faces_at(s.vertex_count());
+    for (std::size_t f = 0; f < s.face_count(); ++f)
+        if (s.region_out[f] == 0)
+            for (const std::int32_t v : s.faces[f])
+                faces_at[static_cast<std::size_t>(v)].push_back(static_cast<std::int32_t>(f));
+    for (std::size_t v = 0; v < s.vertex_count(); ++v) {
+        const auto& at = faces_at[v];
+        if (at.size() < 2) continue;
+        for (const auto& [f, g] : links[v]) {
+            const std::int32_t rf = find(f), rg = find(g);
+            if (rf != rg) parent[static_cast<std::size_t>(std::max(rf, rg))] = std::min(rf, rg);
+        }
+        const std::int32_t root = find(at.front());
+        bool one_fan = true;
+        for (const std::int32_t f : at) one_fan = one_fan && find(f) == root;
+        for (const std::int32_t f : at) parent[static_cast<std::size_t>(f)] = f;  // reset
+        if (!one_fan)
+            return "the outer boundary is not a manifold at vertex " + std::to_string(v) + " " +
+                   near(s.point(static_cast<std::int32_t>(v))) +
+                   ": its faces against the outside form more than one fan (bodies touching at "
+                   "a point); no tet mesh of such a domain has a manifold boundary: separate or "
+                   "join the bodies";
+    }
+    return std::nullopt;
+}
+
 void require_meshable_surface(const SurfaceNetwork& surface, const std::string& source) {
     require_valid_regions(surface, source);
     require_proper_faces(surface, source);
     if (const auto d = first_boundary_defect(surface))
         defect(source, d->text() + (d->is_open ? ": the surface must be closed"
                                                : ": neighbouring faces point opposite ways"));
+    if (const auto outer = outer_boundary_defect(surface)) defect(source, *outer);
     require_positive_volumes(surface, source);
     if (const auto inverted = inverted_parts(surface); !inverted.empty()) {
         const InvertedPart& part = inverted.front();

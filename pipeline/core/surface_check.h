@@ -38,16 +38,24 @@ struct BoundaryDefect {
 /// Precondition: vertex ids in range. Cost O(F log F).
 std::optional<BoundaryDefect> first_boundary_defect(const SurfaceNetwork& surface);
 
+/// The first place (edges in vertex order, then vertices in id order) where the domain's outer
+/// boundary, the faces against label 0, is not a 2-manifold: an edge with more than two of
+/// its faces, or a vertex whose faces there form more than one fan (linked through edges with
+/// two). The referee (meshcheck.py) calls a mesh with such a boundary invalid, whatever its
+/// tets. One line naming the place, or none. Precondition: vertex ids in range. O(F log F).
+std::optional<std::string> outer_boundary_defect(const SurfaceNetwork& surface);
+
 /// Throws InputError with one line "SOURCE: <defect>, region R, near (x, y, z) mm" for the
 /// first defect found, in this order: a vertex id out of range or a non-finite coordinate;
 /// a face whose region_in is not positive or equals its region_out; a face repeating a
 /// vertex or of zero area (exact predicate); a region boundary that is open (an edge with an
 /// odd number of the region's faces) or misoriented (its faces do not alternate in
 /// direction around an edge, or the region encloses a non-positive volume: faces must point
-/// out of region_in); a part of a region's boundary turned inside out (core::inverted_parts);
-/// two faces that intersect (core::self_intersections). Even numbers of
-/// faces around an edge are accepted (2^q, §3: regions touching along an edge).
-/// Cost: O(n log n), dominated by the self-intersection search (about 2 s per million faces).
+/// out of region_in); the outer boundary not a 2-manifold (outer_boundary_defect); a part of a
+/// region's boundary turned inside out (core::inverted_parts); two faces that intersect
+/// (core::self_intersections). Even numbers of faces around an edge are accepted (2^q, §3: regions
+/// touching along an edge inside the domain). Cost: O(n log n), dominated by the self-intersection
+/// search (about 2 s per million faces).
 void require_meshable_surface(const SurfaceNetwork& surface, const std::string& source);
 
 /// What tetra needs beyond a meshable surface, since it keeps every given triangle: throws

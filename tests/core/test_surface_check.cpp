@@ -157,3 +157,40 @@ TEST_CASE("a face too flat or too small for any tet is refused for tetra",
                       Contains("in.vtp: face") && Contains("too small or too flat") &&
                           Contains("region 1") && !Contains("\n"));
 }
+
+// The referee calls a mesh invalid when the domain's outer boundary is no 2-manifold, so
+// bodies touching along an edge or at a point are refused before tetra (they gave exit 0
+// and an INVALID mesh); inside another region the same contact is fine.
+TEST_CASE("bodies touching on the outer boundary are refused, inside a region they are not",
+          "[core][surface_check]") {
+    auto touching = [](const Eigen::Vector3d& shift, frontmesh::core::Label in,
+                       frontmesh::core::Label out) {
+        SurfaceNetwork s;
+        for (const Eigen::Vector3d& at : {Eigen::Vector3d::Zero().eval(), shift})
+            add_octahedron(s, 1.0, at, in, out, false);
+        // weld the coincident vertices
+        std::vector<std::int32_t> id(s.vertex_count());
+        for (std::size_t v = 0; v < s.vertex_count(); ++v) {
+            id[v] = static_cast<std::int32_t>(v);
+            for (std::size_t w = 0; w < v; ++w)
+                if ((s.point(std::int32_t(v)) - s.point(std::int32_t(w))).norm() < 1e-12)
+                    id[v] = id[w];
+        }
+        for (auto& t : s.faces)
+            for (auto& v : t) v = id[static_cast<std::size_t>(v)];
+        return s;
+    };
+    using frontmesh::core::outer_boundary_defect;
+    const SurfaceNetwork edge = touching({1.0, 1.0, 0.0}, 1, 0);
+    REQUIRE(outer_boundary_defect(edge));
+    CHECK_THAT(*outer_boundary_defect(edge), Contains("at edge") && Contains("4 faces"));
+    require_defect(edge, "outer boundary is not a manifold at edge");
+    const SurfaceNetwork point = touching({2.0, 0.0, 0.0}, 1, 0);
+    REQUIRE(outer_boundary_defect(point));
+    CHECK_THAT(*outer_boundary_defect(point), Contains("at vertex") && Contains("(1, 0, 0)"));
+    require_defect(point, "outer boundary is not a manifold at vertex");
+    SurfaceNetwork inside = touching({2.0, 0.0, 0.0}, 1, 2);
+    add_octahedron(inside, 10.0, Eigen::Vector3d::Zero(), 2, 0, false);
+    CHECK_FALSE(outer_boundary_defect(inside));
+    CHECK_NOTHROW(require_meshable_surface(inside, "in.vtp"));
+}
