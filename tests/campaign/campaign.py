@@ -1046,7 +1046,7 @@ def gen_recipe(ctx):
         for _ in range(nmut):
             op = rng.choice(["ins", "del", "dupline", "tab", "indent", "truncate", "swapline",
                              "colon"])
-            pos = rng.randrange(len(text))
+            pos = rng.randrange(max(1, len(text)))  # truncate may leave nothing
             if op == "ins":
                 ch = rng.choice(list(":{}[]'\"&*!|>%@`#\t-,?\\") + ["\n", " - ", ": :"])
                 text = text[:pos] + ch + text[pos:]
@@ -2267,7 +2267,8 @@ def gen_surface(ctx):
             "degenerate", "open", "open_big", "flip_some", "flip_all", "self_intersect",
             "duplicate", "fin", "empty", "single", "count_big", "count_small", "quads",
             "random_bytes", "two_shells", "nested_regions", "bad_regions", "scale_big",
-            "coincident_points", "zero_area_sliver", "header_garbage"]
+            "coincident_points", "zero_area_sliver", "header_garbage", "touch_vertex",
+            "touch_edge"]
     m = rng.choice(muts)
     expect = "any"
     body = None
@@ -2328,6 +2329,23 @@ def gen_surface(ctx):
         pts += p2
         faces += [[v + off for v in f] for f in f2]
         expect = "valid"
+    elif m in ("touch_vertex", "touch_edge"):
+        # A copy of the (convex) sphere reflected through one of its vertices, or through the
+        # midpoint of one of its edges: the two bodies touch there only, and the domain's
+        # outer boundary is not a manifold (refused, or split at a point by repair).
+        a, b, _ = faces[rng.randrange(len(faces))]
+        if m == "touch_vertex":
+            centre, weld = pts[a], {a: a}
+        else:
+            centre, weld = [(pts[a][i] + pts[b][i]) / 2 for i in range(3)], {a: b, b: a}
+        copy = {}
+        for v, p in enumerate(list(pts)):
+            if v in weld:
+                copy[v] = weld[v]
+            else:
+                copy[v] = len(pts)
+                pts.append([2 * centre[i] - p[i] for i in range(3)])
+        faces += [[copy[f[0]], copy[f[2]], copy[f[1]]] for f in faces[:]]  # reflected: reversed
     elif m == "duplicate":
         for _ in range(rng.randint(1, 5)):
             faces.append(list(faces[rng.randrange(len(faces))]))
