@@ -637,8 +637,10 @@ void apply_override(const std::string& item, Recipe& recipe) {
     YAML::Node value = load_yaml(item.substr(eq + 1), "--set " + key, false);
     reject_duplicate_keys(value, "--set", key + ".");
     // Relative paths given on the command line are relative to the current folder.
+    // An empty value is left for the key's own check ("expected a non-empty text"):
+    // fs::absolute("") throws (campaign seed 19: exit 1).
     if ((key == "input.image" || key == "input.surface" || key == "input.label_names") &&
-        value.IsScalar())
+        value.IsScalar() && !value.Scalar().empty())
         value = YAML::Node(fs::absolute(value.Scalar()).lexically_normal().string());
     apply_key(key, value, recipe, "--set");
 }

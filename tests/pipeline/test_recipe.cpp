@@ -213,6 +213,11 @@ TEST_CASE("recipe errors: one line naming file, line and key", "[pipeline]") {
         // `--set input.image=` meshed the file's image, recorded as null (campaign seed 4).
         CHECK_THAT(error_of("input:\n  image: ball.mha\n", {"input.image="}),
                    Catch::Contains("exactly one of input.image or input.surface"));
+        // An empty text is no path: fs::absolute("") threw (campaign seed 19: exit 1).
+        for (const char* key : {"input.image", "input.surface", "input.label_names"})
+            CHECK_THAT(error_of("input:\n  image: ball.mha\n", {std::string(key) + "=''"}),
+                       Catch::Contains(std::string("--set: ") + key) &&
+                           Catch::Contains("expected a non-empty text"));
         const std::string dir = fixtures::temp_dir("recipe_unset");
         fixtures::write_metaimage(fixtures::sphere_image(8, 2.0), dir + "/ball.mha");
         write_file(dir + "/r.yaml", "input:\n  image: ball.mha\n  threshold: 0.5\n");
