@@ -93,6 +93,14 @@ void require_closed_and_oriented(const SurfaceNetwork& s) {
     }
 }
 
+/// `s` as region 2 inside a sphere of region 1 (radius 30 mm): its contacts lie inside the
+/// domain.
+SurfaceNetwork inside_sphere(const SurfaceNetwork& s) {
+    SurfaceNetwork nested = fixtures::uv_sphere(30.0, 16);
+    append(nested, labelled(s, 2, 1));
+    return nested;
+}
+
 /// Every region closed and oriented, with `edges` non-manifold edges in all (2^q faces).
 void require_closed_and_oriented_but_edges(const SurfaceNetwork& s, std::size_t edges) {
     const auto checks = core::check_region_boundaries(s);
@@ -525,10 +533,8 @@ TEST_CASE("repair splits a pinch vertex between touching bodies", "[surface]") {
               Approx(2.0 * core::enclosed_volume(a, 1)).epsilon(1e-3));
     }
     SECTION("inside another region: kept as one vertex") {
-        SurfaceNetwork nested = fixtures::uv_sphere(30.0, 16);
-        append(nested, labelled(s, 2, 1));
         core::StageContext ctx;
-        const SurfaceNetwork out = surface::repair(nested, {}, ctx);
+        const SurfaceNetwork out = surface::repair(inside_sphere(s), {}, ctx);
         CHECK(counter(ctx, "repair.split_vertices") == 0);
         CHECK(counter(ctx, "repair.kept_pinch_vertices") == 1);
         CHECK(pinch_vertices(out) == 2);  // the same vertex, seen from regions 1 and 2
@@ -551,10 +557,8 @@ TEST_CASE("repair refuses bodies touching along an edge, and keeps such an edge 
                               Catch::Contains("near (0.5, 0.5, 0) mm"));
     }
     SECTION("inside another region: kept and reported") {
-        SurfaceNetwork nested = fixtures::uv_sphere(30.0, 16);
-        append(nested, labelled(s, 2, 1));
         core::StageContext ctx;
-        const SurfaceNetwork out = surface::repair(nested, {}, ctx);
+        const SurfaceNetwork out = surface::repair(inside_sphere(s), {}, ctx);
         CHECK(counter(ctx, "repair.merged_points") == 2);
         CHECK(counter(ctx, "repair.nonmanifold_edges") == 2);  // once for regions 1 and 2
         CHECK(counter(ctx, "repair.split_vertices") == 0);
