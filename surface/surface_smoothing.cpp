@@ -609,11 +609,16 @@ private:
         verts.erase(std::unique(verts.begin(), verts.end()), verts.end());
     }
 
-    // Smallest region wedge at junction edge k: every region with exactly two faces there.
+    // Smallest region wedge at junction edge k: every region with exactly two faces there,
+    // folded (min(w, 360 - w)). Unfolded, a face turned past its neighbour at the edge reads
+    // as a wide wedge of about 360 degrees while the region lies on itself (the regions
+    // around the edge then add up to more than 360): natbrainlab's region 102 kept a fold of
+    // 0.44 degrees between its faces with region 108 and the outside, which the guards took
+    // for 359.56, and tetra could only fill it with tets of 1 degree.
     double edge_wedge(std::int64_t k) const {
         const std::int64_t n = std::int64_t(s_.vertex_count());
         return smallest_edge_wedge(s_, static_cast<std::int32_t>(k / n),
-                                   static_cast<std::int32_t>(k % n), junction_.at(k));
+                                   static_cast<std::int32_t>(k % n), junction_.at(k), true);
     }
 
     double face_wedge(std::int32_t f, double smallest) const {

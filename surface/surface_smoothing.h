@@ -117,14 +117,14 @@ std::size_t split_obtuse_faces(core::SurfaceNetwork& surface,
 /// neighbours; a move is kept only if the smallest angle of the faces around the vertex does
 /// not drop and no face turns by more than `max_normal_turn_deg`. Then edges inside a patch
 /// are flipped where both faces are flat within `flip_max_dihedral_deg` and the smaller
-/// minimum angle of the pair grows. Region wedges (ThinWedge) at junction edges: no move or
-/// flip may lower one under min(wedge_target_deg, 20) (or lower one already under it), and a
-/// last pass raises those under wedge_target_deg by moves along patches and curves and flips.
-/// Then the tip pass: each ForcedTet (fan wedge under 2 tip_target_deg) whose tet has a
-/// dihedral angle under tip_target_deg gets moves of its free and curve vertices that raise
-/// it (no other forced tet of the moved vertex may drop, no face under min(its angle, 22),
-/// a region wedge may drop only to the raised tet angle: the fan's wedges are angles of its
-/// tet). Topology of curves and patches is kept; deterministic.
+/// minimum angle of the pair grows. Region wedges (ThinWedge, folded as thin_region_wedges
+/// counts them) at junction edges: no move or flip may lower one under min(wedge_target_deg, 20)
+/// (or lower one already under it), and a last pass raises those under wedge_target_deg by moves
+/// along patches and curves and flips. Then the tip pass: each ForcedTet (fan wedge under 2
+/// tip_target_deg) whose tet has a dihedral angle under tip_target_deg gets moves of its free and
+/// curve vertices that raise it (no other forced tet of the moved vertex may drop, no face under
+/// min(its angle, 22), a region wedge may drop only to the raised tet angle: the fan's wedges are
+/// angles of its tet). Topology of curves and patches is kept; deterministic.
 /// `constraints.vertex_face` is updated. Preconditions: sizes match the surface.
 SmoothingReport smooth_surface(core::SurfaceNetwork& surface,
                                const std::vector<const BackgroundPatch*>& patches,

@@ -423,3 +423,79 @@ TEST_CASE("the tip pass raises the forced tet of a thin three-face cone", "[reme
         CHECK(angle_open > angle_on + 0.5);
     }
 }
+
+TEST_CASE("a region folded onto itself at a junction edge counts as a thin wedge",
+          "[remesh][wedge]") {
+    // Two tets on the edge T-U: region 1 is (T, U, P1, P2), a wedge of 30 degrees there;
+    // region 2 lies across their shared face (T, U, P2), but its other face at T-U, through
+    // P3, is turned back past that face to 28 degrees, inside region 1's wedge. Region 2's
+    // faces are 2 degrees apart at T-U with the region on their far side: 358 degrees
+    // unfolded, and the wedges around the edge add up to more than 360 (natbrainlab's
+    // region 102 after remesh). Every vertex is a curve end, so the smoothing moves nothing
+    // and its report reads the wedges as they are.
+    core::SurfaceNetwork s;
+    const double deg = kPi / 180.0;
+    const auto ray = [deg](double a) {
+        return Eigen::Vector3d(std::cos(a * deg), std::sin(a * deg), 0.5);
+    };
+    const std::int32_t t = s.add_vertex({0.0, 0.0, 0.0}), u = s.add_vertex({0.0, 0.0, 1.0}),
+                       p1 = s.add_vertex(ray(0.0)), p2 = s.add_vertex(ray(30.0)),
+                       p3 = s.add_vertex(ray(28.0));
+    // Faces oriented out of region_in: region 1's outward normals point away from its
+    // interior; the interface (T, U, P2) out of region 1; region 2 closed on the far side.
+    const Eigen::Vector3d inside1 = (s.point(t) + s.point(u) + s.point(p1) + s.point(p2)) / 4.0;
+    const auto add = [&s](std::int32_t a, std::int32_t b, std::int32_t c, core::Label in,
+                          core::Label out, const Eigen::Vector3d& away) {
+        const Eigen::Vector3d n = (s.point(b) - s.point(a)).cross(s.point(c) - s.point(a));
+        if (n.dot(away) >= 0.0)
+            s.add_face(a, b, c, in, out);
+        else
+            s.add_face(a, c, b, in, out);
+    };
+    const auto centre = [&s](std::int32_t a, std::int32_t b, std::int32_t c) {
+        return (s.point(a) + s.point(b) + s.point(c)) / 3.0;
+    };
+    add(t, u, p1, 1, 0, centre(t, u, p1) - inside1);
+    add(t, p1, p2, 1, 0, centre(t, p1, p2) - inside1);
+    add(u, p1, p2, 1, 0, centre(u, p1, p2) - inside1);
+    add(t, u, p2, 1, 2, centre(t, u, p2) - inside1);
+    // Region 2's other faces, oriented as the continuation of the interface: out of region 2
+    // means towards region 1's side of each (the far side of the fold).
+    const Eigen::Vector3d inside2 = (s.point(t) + s.point(u) + s.point(p2) + s.point(p3)) / 4.0;
+    add(t, u, p3, 2, 0, inside2 - centre(t, u, p3));
+    add(t, p2, p3, 2, 0, inside2 - centre(t, p2, p3));
+    add(u, p2, p3, 2, 0, inside2 - centre(u, p2, p3));
+
+    // Unfolded, region 2's wedge at T-U is about 358 degrees; folded, 2.
+    const auto thin = surface::thin_region_wedges(s, 5.0);
+    REQUIRE(thin.size() == 1);
+    CHECK(thin[0].wedge_deg == Approx(2.0).margin(0.01));
+
+    std::vector<surface::BackgroundPatch> patches;
+    std::vector<const surface::BackgroundPatch*> pointers;
+    surface::SurfaceConstraints cons;
+    patches.reserve(s.face_count());
+    for (std::size_t f = 0; f < s.face_count(); ++f) {
+        patches.emplace_back(s, std::vector<std::int32_t>{std::int32_t(f)}, false);
+        cons.face_patch.push_back(std::int32_t(f));
+    }
+    for (const auto& p : patches) pointers.push_back(&p);
+    cons.vertex_face.assign(s.vertex_count(), -1);
+    for (const auto& [a, b] : std::vector<std::pair<std::int32_t, std::int32_t>>{
+             {t, u}, {t, p1}, {t, p2}, {t, p3}, {u, p1}, {u, p2}, {u, p3}, {p1, p2}, {p2, p3}}) {
+        surface::SurfaceCurve curve;
+        curve.polyline = {s.point(a), s.point(b)};
+        curve.vertices = {a, b};
+        curve.s = {0.0, (s.point(b) - s.point(a)).norm()};
+        cons.curves.push_back(curve);
+    }
+    core::SurfaceNetwork smoothed = s;
+    core::StageContext ctx;
+    const surface::SmoothingReport report =
+        surface::smooth_surface(smoothed, pointers, cons, surface::SmoothingParams(), ctx);
+    CHECK(smoothed.xyz == s.xyz);
+    // The smoothing's guards see the fold as the 2-degree wedge it is, not as 358 degrees
+    // (they did, and let moves fold regions: a fold reads as a wide wedge).
+    CHECK(report.min_wedge_before_deg == Approx(2.0).margin(0.01));
+    CHECK(report.min_wedge_after_deg == Approx(2.0).margin(0.01));
+}
