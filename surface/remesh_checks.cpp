@@ -187,6 +187,39 @@ bool check_inverted_after_mend(const core::SurfaceNetwork& out,
     return result.again;
 }
 
+// Region wedges the mend closed: under kMendWedgeDeg after it and not before (the smoothing's
+// wedge pass had opened them; the mend put their vertices back where the front made them).
+// HarvardOxford-cort: region 17 kept two wedges of 1.55 and 1.88 degrees that way, and its
+// tets there had the same angles. Not the last round: meshed again finer there, true.
+constexpr double kMendWedgeDeg = 12.0;
+
+bool mend_closed_wedges(const core::SurfaceNetwork& smoothed, const core::SurfaceNetwork& out,
+                        const std::vector<std::int32_t>& face_patch, int round, RetryPolicy& retry,
+                        core::StageContext& ctx) {
+    if (round + 1 >= RetryPolicy::kRounds) return false;
+    std::vector<std::vector<std::int32_t>> before;
+    for (const ThinWedge& w : thin_region_wedges(smoothed, kMendWedgeDeg))
+        before.push_back(w.faces);
+    std::sort(before.begin(), before.end());
+    std::vector<std::int32_t> faces;
+    std::size_t closed = 0;
+    Eigen::Vector3d first = Eigen::Vector3d::Zero();
+    for (const ThinWedge& w : thin_region_wedges(out, kMendWedgeDeg)) {
+        if (std::binary_search(before.begin(), before.end(), w.faces)) continue;
+        if (closed++ == 0) first = w.midpoint;
+        faces.insert(faces.end(), w.faces.begin(), w.faces.end());
+    }
+    ctx.add("remesh.wedges_closed_by_mend", double(closed));  // over the rounds
+    if (closed == 0) return false;
+    retry.on_bad_faces(faces, out, face_patch, round);
+    ctx.warn("remesh: " + std::to_string(closed) + " region wedge(s) closed under " +
+             std::to_string(kMendWedgeDeg) +
+             " degrees where crossing faces were put back (e.g. near " + point_text(first) +
+             "); meshing again finer there");
+    retry.note(std::to_string(closed) + " region wedges closed by the mend");
+    return true;
+}
+
 bool mend_self_intersections(core::SurfaceNetwork& out, const std::vector<double>& front_xyz,
                              const std::vector<std::int32_t>& face_patch, int round,
                              RetryPolicy& retry, core::StageContext& ctx) {
@@ -194,6 +227,7 @@ bool mend_self_intersections(core::SurfaceNetwork& out, const std::vector<double
     // (smoothing moved them); a few passes, then the first remaining pair is an error.
     auto pairs = core::self_intersections(out, 1000);
     ctx.count("remesh.self_intersections_after_smoothing", double(pairs.size()));
+    const core::SurfaceNetwork smoothed = pairs.empty() ? core::SurfaceNetwork() : out;
     for (int pass = 0; pass < 3 && !pairs.empty(); ++pass) {
         for (const auto& [f, g] : pairs)
             for (const std::int32_t face : {f, g})
@@ -204,7 +238,9 @@ bool mend_self_intersections(core::SurfaceNetwork& out, const std::vector<double
         pairs = core::self_intersections(out, 1000);
     }
     ctx.count("remesh.self_intersections", double(pairs.size()));
-    if (pairs.empty()) return false;
+    if (pairs.empty())
+        return smoothed.vertex_count() > 0 &&
+               mend_closed_wedges(smoothed, out, face_patch, round, retry, ctx);
     if (round + 1 < RetryPolicy::kRounds) {
         // Meshed again with half the size around each crossing (two patches meeting at a
         // sharp angle, or a gap narrower than the smallest size): the finer the triangles,

@@ -1,6 +1,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <numbers>
 #include <set>
 #include <tuple>
 
@@ -455,4 +456,71 @@ TEST_CASE("a copied patch loses its needles and keeps its boundary (coarsen_patc
     for (std::size_t k = 0; k < fixed; ++k) CHECK(out.points[k] == mesh.points[k]);
     for (const auto& p : out.points)  // every point a background vertex
         CHECK(std::find(mesh.points.begin(), mesh.points.end(), p) != mesh.points.end());
+}
+
+namespace {
+
+// Two tets on the edge T-U: region 1 (T, U, P1, P2) with a wedge of 30 degrees there, region
+// 2 (T, U, P2, P3) beside it with a wedge of `wedge2_deg`; faces oriented out of region_in.
+core::SurfaceNetwork two_wedges(double wedge2_deg) {
+    core::SurfaceNetwork s;
+    const auto ray = [](double deg) {
+        const double a = deg * std::numbers::pi / 180.0;
+        return Eigen::Vector3d(std::cos(a), std::sin(a), 0.5);
+    };
+    const std::int32_t t = s.add_vertex({0.0, 0.0, 0.0}), u = s.add_vertex({0.0, 0.0, 1.0}),
+                       p1 = s.add_vertex(ray(0.0)), p2 = s.add_vertex(ray(30.0)),
+                       p3 = s.add_vertex(ray(30.0 + wedge2_deg));
+    const auto add = [&s](std::int32_t a, std::int32_t b, std::int32_t c, core::Label in,
+                          core::Label out, const Eigen::Vector3d& inside) {
+        const Eigen::Vector3d n = (s.point(b) - s.point(a)).cross(s.point(c) - s.point(a));
+        const Eigen::Vector3d m = (s.point(a) + s.point(b) + s.point(c)) / 3.0;
+        if (n.dot(m - inside) >= 0.0)
+            s.add_face(a, b, c, in, out);
+        else
+            s.add_face(a, c, b, in, out);
+    };
+    const Eigen::Vector3d in1 = (s.point(t) + s.point(u) + s.point(p1) + s.point(p2)) / 4.0;
+    const Eigen::Vector3d in2 = (s.point(t) + s.point(u) + s.point(p2) + s.point(p3)) / 4.0;
+    add(t, u, p1, 1, 0, in1);
+    add(t, p1, p2, 1, 0, in1);
+    add(u, p1, p2, 1, 0, in1);
+    add(t, u, p2, 1, 2, in1);
+    add(t, u, p3, 2, 0, in2);
+    add(t, p2, p3, 2, 0, in2);
+    add(u, p2, p3, 2, 0, in2);
+    return s;
+}
+
+}  // namespace
+
+TEST_CASE("a region wedge the mend of crossings closed is meshed again finer", "[remesh]") {
+    // HarvardOxford-cort: the smoothing opened region 17's wedges, the mend of a crossing put
+    // their vertices back where the front made them, at 1.55 degrees. A wedge under 12
+    // degrees after the mend and not before it asks for another round; one the smoothing
+    // left thin is not the mend's doing.
+    using surface::remesh_detail::RetryPolicy;
+    const core::SurfaceNetwork opened = two_wedges(30.0), closed = two_wedges(5.0);
+    const surface::SizeField field(opened, std::vector<double>(opened.vertex_count(), 1.0));
+    const std::vector<std::int32_t> face_patch(opened.face_count(), 0);
+    {
+        RetryPolicy retry(opened, field, 1);
+        core::StageContext ctx;
+        CHECK(
+            surface::remesh_detail::mend_closed_wedges(opened, closed, face_patch, 0, retry, ctx));
+        CHECK(ctx.counters().at("remesh.wedges_closed_by_mend") == 1.0);
+        REQUIRE(ctx.warnings().size() == 1);
+        CHECK(ctx.warnings()[0].find("meshing again finer") != std::string::npos);
+    }
+    {
+        RetryPolicy retry(opened, field, 1);
+        core::StageContext ctx;
+        CHECK_FALSE(
+            surface::remesh_detail::mend_closed_wedges(closed, closed, face_patch, 0, retry, ctx));
+        CHECK_FALSE(
+            surface::remesh_detail::mend_closed_wedges(opened, opened, face_patch, 0, retry, ctx));
+        // The last round keeps what it has.
+        CHECK_FALSE(surface::remesh_detail::mend_closed_wedges(
+            opened, closed, face_patch, RetryPolicy::kRounds - 1, retry, ctx));
+    }
 }
