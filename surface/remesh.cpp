@@ -541,7 +541,10 @@ bool mesh_round(int round, Rounds& r, RoundResult& result) {
     // The mend moved vertices back after check_regions: a part can be inside out only now
     // (torture seed 176 with a balanced manifold clean-up: 92 faces of region 2, and tetra
     // then ran for over 28 minutes on that surface).
-    if (out.xyz != smoothed_xyz && check_inverted_after_mend(out, patch_of, round, r.retry, ctx))
+    // The mend may also close a wedge the smoothing had opened (HarvardOxford-cort).
+    if (out.xyz != smoothed_xyz &&
+        (mend_closed_wedges(smoothed_xyz, out, patch_of, round, r.retry, ctx) ||
+         check_inverted_after_mend(out, patch_of, round, r.retry, ctx)))
         return false;
     if (check_unmeshable_wedges(out, patch_of, round, r.retry, ctx)) return false;
     if (!regions.rescaled.empty()) {

@@ -193,10 +193,12 @@ bool check_inverted_after_mend(const core::SurfaceNetwork& out,
 // tets there had the same angles. Not the last round: meshed again finer there, true.
 constexpr double kMendWedgeDeg = 12.0;
 
-bool mend_closed_wedges(const core::SurfaceNetwork& smoothed, const core::SurfaceNetwork& out,
+bool mend_closed_wedges(const std::vector<double>& smoothed_xyz, const core::SurfaceNetwork& out,
                         const std::vector<std::int32_t>& face_patch, int round, RetryPolicy& retry,
                         core::StageContext& ctx) {
     if (round + 1 >= RetryPolicy::kRounds) return false;
+    core::SurfaceNetwork smoothed = out;  // a mend happened: rare, and O(faces) as the rest
+    smoothed.xyz = smoothed_xyz;
     std::vector<std::vector<std::int32_t>> before;
     for (const ThinWedge& w : thin_region_wedges(smoothed, kMendWedgeDeg))
         before.push_back(w.faces);
@@ -213,7 +215,7 @@ bool mend_closed_wedges(const core::SurfaceNetwork& smoothed, const core::Surfac
     if (closed == 0) return false;
     retry.on_bad_faces(faces, out, face_patch, round);
     ctx.warn("remesh: " + std::to_string(closed) + " region wedge(s) closed under " +
-             std::to_string(kMendWedgeDeg) +
+             std::to_string(std::lround(kMendWedgeDeg)) +
              " degrees where crossing faces were put back (e.g. near " + point_text(first) +
              "); meshing again finer there");
     retry.note(std::to_string(closed) + " region wedges closed by the mend");
@@ -227,7 +229,6 @@ bool mend_self_intersections(core::SurfaceNetwork& out, const std::vector<double
     // (smoothing moved them); a few passes, then the first remaining pair is an error.
     auto pairs = core::self_intersections(out, 1000);
     ctx.count("remesh.self_intersections_after_smoothing", double(pairs.size()));
-    const core::SurfaceNetwork smoothed = pairs.empty() ? core::SurfaceNetwork() : out;
     for (int pass = 0; pass < 3 && !pairs.empty(); ++pass) {
         for (const auto& [f, g] : pairs)
             for (const std::int32_t face : {f, g})
@@ -238,9 +239,7 @@ bool mend_self_intersections(core::SurfaceNetwork& out, const std::vector<double
         pairs = core::self_intersections(out, 1000);
     }
     ctx.count("remesh.self_intersections", double(pairs.size()));
-    if (pairs.empty())
-        return smoothed.vertex_count() > 0 &&
-               mend_closed_wedges(smoothed, out, face_patch, round, retry, ctx);
+    if (pairs.empty()) return false;
     if (round + 1 < RetryPolicy::kRounds) {
         // Meshed again with half the size around each crossing (two patches meeting at a
         // sharp angle, or a gap narrower than the smallest size): the finer the triangles,

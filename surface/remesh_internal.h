@@ -332,16 +332,16 @@ RegionChecks check_regions(const core::SurfaceNetwork& bg, const core::SurfaceNe
                            core::StageContext& ctx);
 
 /// Region wedges under 12 degrees in `out` (after the mend of self-intersections) that were
-/// not in `smoothed` (before it): unless in the last round, shrink sites at their faces, a
-/// warning, and true (mesh again); else false. Counter `remesh.wedges_closed_by_mend`.
-bool mend_closed_wedges(const core::SurfaceNetwork& smoothed, const core::SurfaceNetwork& out,
+/// not there with the positions before it (`smoothed_xyz`): unless in the last round, shrink
+/// sites at their faces, a warning, and true (mesh again); else false. Counter
+/// `remesh.wedges_closed_by_mend`.
+bool mend_closed_wedges(const std::vector<double>& smoothed_xyz, const core::SurfaceNetwork& out,
                         const std::vector<std::int32_t>& face_patch, int round, RetryPolicy& retry,
                         core::StageContext& ctx);
 
 /// Self-intersections after smoothing: vertices of crossing faces go back to where the front
 /// put them (`front_xyz`) for up to three passes; faces still crossing make shrink sites and
-/// return true (mesh again), or in the last round throw GeometryError naming the faces. When
-/// the crossings are gone, the wedges the mend closed (mend_closed_wedges) decide.
+/// return true (mesh again), or in the last round throw GeometryError naming the faces.
 bool mend_self_intersections(core::SurfaceNetwork& out, const std::vector<double>& front_xyz,
                              const std::vector<std::int32_t>& face_patch, int round,
                              RetryPolicy& retry, core::StageContext& ctx);

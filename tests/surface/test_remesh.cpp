@@ -506,8 +506,8 @@ TEST_CASE("a region wedge the mend of crossings closed is meshed again finer", "
     {
         RetryPolicy retry(opened, field, 1);
         core::StageContext ctx;
-        CHECK(
-            surface::remesh_detail::mend_closed_wedges(opened, closed, face_patch, 0, retry, ctx));
+        CHECK(surface::remesh_detail::mend_closed_wedges(opened.xyz, closed, face_patch, 0, retry,
+                                                         ctx));
         CHECK(ctx.counters().at("remesh.wedges_closed_by_mend") == 1.0);
         REQUIRE(ctx.warnings().size() == 1);
         CHECK(ctx.warnings()[0].find("meshing again finer") != std::string::npos);
@@ -515,12 +515,12 @@ TEST_CASE("a region wedge the mend of crossings closed is meshed again finer", "
     {
         RetryPolicy retry(opened, field, 1);
         core::StageContext ctx;
-        CHECK_FALSE(
-            surface::remesh_detail::mend_closed_wedges(closed, closed, face_patch, 0, retry, ctx));
-        CHECK_FALSE(
-            surface::remesh_detail::mend_closed_wedges(opened, opened, face_patch, 0, retry, ctx));
+        CHECK_FALSE(surface::remesh_detail::mend_closed_wedges(closed.xyz, closed, face_patch, 0,
+                                                               retry, ctx));
+        CHECK_FALSE(surface::remesh_detail::mend_closed_wedges(opened.xyz, opened, face_patch, 0,
+                                                               retry, ctx));
         // The last round keeps what it has.
         CHECK_FALSE(surface::remesh_detail::mend_closed_wedges(
-            opened, closed, face_patch, RetryPolicy::kRounds - 1, retry, ctx));
+            opened.xyz, closed, face_patch, RetryPolicy::kRounds - 1, retry, ctx));
     }
 }
