@@ -182,7 +182,8 @@ public:
 private:
     /// insert_node's cavity `variant` around tet t into cavity_: 0-5 the ring of edge
     /// `variant` of t (false when that edge lies on a wall), 6 and 7 t with one and two layers
-    /// of neighbours across non-wall faces.
+    /// of neighbours across non-wall faces, 8-11 the star of node `variant` - 8 of t (false
+    /// when it is a surface node): the new node replaces it, a move searched widely.
     bool insertion_cavity(std::int32_t t, int variant);
     /// Replaces the tets `cavity` by a new node at p joined to every face of `boundary` (faces
     /// seen from inside), in `region`; the node's level is the highest of the cavity's nodes.

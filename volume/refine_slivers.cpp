@@ -321,6 +321,12 @@ bool RefineOps::insertion_cavity(std::int32_t t, int variant) {
         cavity_ = ring_tets_;
         return true;
     }
+    if (variant >= 8) {
+        // The star of an interior node of t: the new node takes its place, so this is a move
+        // of that node, searched as widely as a new node's position.
+        const std::int32_t v = t_nodes[static_cast<std::size_t>(variant - 8)];
+        return !topo_.is_surface_node(v) && topo_.star(v, cavity_);
+    }
     // t, then the tets across the non-wall faces of the tets already in the cavity.
     cavity_.assign(1, t);
     for (int r = 0; r < variant - 5; ++r) {
@@ -356,8 +362,9 @@ bool RefineOps::insert_node(std::int32_t t, Objective objective) {
     const bool rescue = tet_shape(topo_.xyz(t_nodes[0]), topo_.xyz(t_nodes[1]),
                                   topo_.xyz(t_nodes[2]), topo_.xyz(t_nodes[3]), true)
                             .min_dihedral_deg < kRescueDihedralDeg;
-    // Eight cavities: the rings of t's six edges, then t with one and two layers of neighbours.
-    for (int variant = 0; variant < 8; ++variant) {
+    // Twelve cavities: the rings of t's six edges, t with one and two layers of neighbours, and
+    // the stars of t's interior nodes.
+    for (int variant = 0; variant < 12; ++variant) {
         if (!insertion_cavity(t, variant) || cavity_.size() > kMaxCavity) continue;
         cavity_boundary(topo_, cavity_, boundary);
         if (!is_sphere(boundary)) continue;

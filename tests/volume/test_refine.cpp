@@ -384,6 +384,25 @@ TEST_CASE("A Steiner node mends a sliver whose four nodes are on the surface", "
 
 namespace {
 
+// Walls of region 1 against the outside on every tet face (outward) that appears once.
+void add_hull_faces(core::TetMesh& m) {
+    static constexpr int kFace[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
+    std::vector<std::array<std::int32_t, 3>> all;
+    for (const Tet& t : m.tets)
+        for (const auto& f : kFace) all.push_back({t[f[0]], t[f[1]], t[f[2]]});
+    for (const auto& f : all) {
+        auto key = f;
+        std::sort(key.begin(), key.end());
+        const auto same = std::count_if(all.begin(), all.end(), [&](std::array<std::int32_t, 3> g) {
+            std::sort(g.begin(), g.end());
+            return g == key;
+        });
+        if (same == 1) m.faces.push_back(f);
+    }
+    m.region_in.assign(m.faces.size(), 1);
+    m.region_out.assign(m.faces.size(), 0);
+}
+
 // The four tets around an inner edge on a convex stretch of AAL region 62 (frontmesh's AAL
 // run, refine stage), the first of them a 7.2 degree sliver on two boundary triangles that no
 // flip, move or removal mended: every node placed in the ring to split it left more tets
@@ -411,22 +430,38 @@ core::TetMesh aal_ring() {
             std::swap(t[1], t[2]);
         m.add_tet(t[0], t[1], t[2], t[3], 1);
     }
-    // The hull: the tet faces (outward) that appear once.
-    static constexpr int kFace[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
-    std::vector<std::array<std::int32_t, 3>> all;
-    for (const Tet& t : m.tets)
-        for (const auto& f : kFace) all.push_back({t[f[0]], t[f[1]], t[f[2]]});
-    for (const auto& f : all) {
-        auto key = f;
-        std::sort(key.begin(), key.end());
-        const auto same = std::count_if(all.begin(), all.end(), [&](std::array<std::int32_t, 3> g) {
-            std::sort(g.begin(), g.end());
-            return g == key;
-        });
-        if (same == 1) m.faces.push_back(f);
+    add_hull_faces(m);
+    return m;
+}
+
+// The star of interior node 946340 of frontmesh's jhu189 run (refine stage, region 113): its
+// tet 6 is a 1.47 degree sliver, node 8 nearly on the surface edge 0-1 (the triangle 8-0-1 has
+// a 169.8 degree angle at node 8). No flip, move, removal or new node in a ring or layer
+// around the sliver mended it: moving node 8 alone trades the sliver for more tets above
+// skewness 0.8 than a move may make. Here all faces of the star's hull are walls.
+core::TetMesh jhu189_star() {
+    core::TetMesh m;
+    for (const std::array<double, 3> x :
+         {std::array<double, 3>{-78.58168602037672, -81.5918511010493, 27.546554944763894},
+          std::array<double, 3>{-78.4937614258327, -83.15301484903839, 27.15409792099988},
+          std::array<double, 3>{-78.44391870329531, -82.58589697503729, 28.425581403116702},
+          std::array<double, 3>{-78.92480530217586, -82.95494050963478, 27.634658871219806},
+          std::array<double, 3>{-78.80913939694337, -82.45709960118008, 27.690926365351018},
+          std::array<double, 3>{-78.87044934274071, -82.69841685349044, 27.364002235330183},
+          std::array<double, 3>{-79.0658924202864, -82.43093796968652, 27.509723666914766},
+          std::array<double, 3>{-78.88571636049569, -82.53281091201903, 27.196019769651347},
+          std::array<double, 3>{-78.54441484810911, -82.48559881850215, 27.39360884595815}})
+        m.add_node({x[0], x[1], x[2]});
+    m.surface_vertices = 8;
+    for (Tet t : {Tet{7, 0, 6, 8}, Tet{5, 8, 1, 7}, Tet{8, 0, 1, 7}, Tet{3, 4, 2, 8},
+                  Tet{1, 5, 3, 8}, Tet{2, 1, 3, 8}, Tet{0, 2, 8, 1}, Tet{7, 8, 6, 5},
+                  Tet{6, 8, 0, 4}, Tet{4, 5, 8, 3}, Tet{4, 8, 0, 2}, Tet{4, 5, 6, 8}}) {
+        const double* x = m.xyz.data();
+        if (!volume::positive_tet(x + 3 * t[0], x + 3 * t[1], x + 3 * t[2], x + 3 * t[3]))
+            std::swap(t[1], t[2]);
+        m.add_tet(t[0], t[1], t[2], t[3], 1);
     }
-    m.region_in.assign(m.faces.size(), 1);
-    m.region_out.assign(m.faces.size(), 0);
+    add_hull_faces(m);
     return m;
 }
 
@@ -452,6 +487,30 @@ TEST_CASE("A sliver on a convex stretch of boundary is split even at the cost of
     CHECK(after.volume == Approx(before.volume).epsilon(1e-12));
     CHECK(same_surface(out, input));
     CHECK(out.node_count() == input.node_count() + 1);
+    const auto q_after = volume::tet_quality(out);
+    CHECK(q_after.min_dihedral_deg >= 10.0);
+    CHECK(q_after.skewness_over_08 <= q_before.skewness_over_08 + 8);  // the rescue's bound
+}
+
+TEST_CASE("A sliver at an interior node near a surface edge: the node is placed anew", "[refine]") {
+    const core::TetMesh input = jhu189_star();
+    const auto before = volume::check_tet_mesh(input);
+    INFO(before.summary());
+    REQUIRE(before.valid());
+    const auto q_before = volume::tet_quality(input);
+    REQUIRE(q_before.min_dihedral_deg < 1.5);  // the sliver, tet 6
+    TetTopology topo(input);
+    RefineOps ops(topo, RefineParams{});
+    REQUIRE(ops.insert_node(6, Objective::Combined));
+    REQUIRE(topo.check());
+    const core::TetMesh out = topo.compact();
+    const auto after = volume::check_tet_mesh(out);
+    INFO(after.summary());
+    CHECK(after.valid());
+    CHECK(after.volume == Approx(before.volume).epsilon(1e-12));
+    CHECK(same_surface(out, input));
+    CHECK(out.node_count() == input.node_count());  // node 8 replaced, not joined
+    CHECK(out.tet_count() == input.tet_count());
     const auto q_after = volume::tet_quality(out);
     CHECK(q_after.min_dihedral_deg >= 10.0);
     CHECK(q_after.skewness_over_08 <= q_before.skewness_over_08 + 8);  // the rescue's bound
