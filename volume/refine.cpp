@@ -230,6 +230,7 @@ core::TetMesh refine(const core::TetMesh& mesh, const RefineParams& params,
     ctx.count("refine.sliver.moves", static_cast<double>(c.sliver_moves));
     ctx.count("refine.sliver.removals", static_cast<double>(c.sliver_removals));
     ctx.count("refine.sliver.insertions", static_cast<double>(c.sliver_insertions));
+    ctx.count("refine.sliver.sweeps", static_cast<double>(c.sliver_sweeps));
     record(ctx, "refine.final", figures);
     ctx.progress(1.0, "refine done");
     return topo.compact();

@@ -63,6 +63,8 @@ struct RefineCounts {
     std::size_t smoothing_moves = 0;
     std::size_t flips_2_3 = 0, flips_3_2 = 0, flips_4_4 = 0, flips_n_m = 0;
     std::size_t sliver_flips = 0, sliver_moves = 0, sliver_removals = 0, sliver_insertions = 0;
+    std::size_t sliver_sweeps =
+        0;  ///< sweeps the sliver pass made (it stops at one that changes nothing)
     std::size_t edge_splits = 0;                    ///< tetra.max_edge_length
     std::size_t flip_attempts = 0, edge_rings = 0;  ///< work done (tets examined, rings walked)
 };

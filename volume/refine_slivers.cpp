@@ -83,6 +83,7 @@ void RefineOps::slivers() {
     settled_.assign(static_cast<std::size_t>(topo_.tet_capacity()), 0);  // a new objective
     for (int sweep = 0; sweep < params_.sliver_sweeps; ++sweep) {
         const auto candidates = bad_tets(Objective::Combined, target);
+        ++counts.sliver_sweeps;
         settled_.resize(static_cast<std::size_t>(topo_.tet_capacity()), 0);
         std::size_t changed = 0;
         for (const std::int32_t t : candidates) {
