@@ -48,8 +48,9 @@ const core::ParamTable<RefineParams>& refine_keys() {
         {"refine.sliver_dihedral_deg", &P::sliver_dihedral_deg, "25.0",
          core::above_up_to(0.0, 70.5), "deg",
          "tets with a smaller dihedral angle are targeted by the sliver pass"},
-        {"refine.sliver_sweeps", &P::sliver_sweeps, "12", core::closed(1, 20), "",
-         "sweeps of the sliver pass at most (it stops after a sweep that changes nothing)"},
+        {"refine.sliver_sweeps", &P::sliver_sweeps, "5", core::closed(1, 20), "",
+         "full sweeps of the sliver pass at most (it stops after a sweep that changes nothing); up "
+         "to 7 more visit the tets under 10 degrees alone"},
     };
     return table;
 }
