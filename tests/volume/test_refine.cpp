@@ -467,53 +467,48 @@ core::TetMesh jhu189_star() {
 
 }  // namespace
 
-TEST_CASE("A sliver on a convex stretch of boundary is split even at the cost of caps",
-          "[refine]") {
-    const core::TetMesh input = aal_ring();
+namespace {
+
+// insert_node's rescue of tet `sliver` of `input`, whose smallest angle is under `below_deg`:
+// the mesh stays valid with the same volume and surface, its smallest angle reaches 10 deg,
+// and at most 8 more tets are above skewness 0.8 (the rescue's bound). Returns the result.
+core::TetMesh check_rescue(const core::TetMesh& input, std::int32_t sliver, double below_deg) {
     const auto before = volume::check_tet_mesh(input);
     INFO(before.summary());
     REQUIRE(before.valid());
-    REQUIRE(input.faces.size() == 8);
     const auto q_before = volume::tet_quality(input);
-    REQUIRE(q_before.min_dihedral_deg < 7.5);  // the sliver, tet 0
+    REQUIRE(q_before.min_dihedral_deg < below_deg);
     TetTopology topo(input);
     RefineOps ops(topo, RefineParams{});
-    REQUIRE(ops.insert_node(0, Objective::Combined));
+    REQUIRE(ops.insert_node(sliver, Objective::Combined));
     REQUIRE(topo.check());
-    const core::TetMesh out = topo.compact();
+    core::TetMesh out = topo.compact();
     const auto after = volume::check_tet_mesh(out);
     INFO(after.summary());
     CHECK(after.valid());
     CHECK(after.volume == Approx(before.volume).epsilon(1e-12));
     CHECK(same_surface(out, input));
-    CHECK(out.node_count() == input.node_count() + 1);
     const auto q_after = volume::tet_quality(out);
     CHECK(q_after.min_dihedral_deg >= 10.0);
-    CHECK(q_after.skewness_over_08 <= q_before.skewness_over_08 + 8);  // the rescue's bound
+    CHECK(q_after.skewness_over_08 <= q_before.skewness_over_08 + 8);
+    return out;
+}
+
+}  // namespace
+
+TEST_CASE("A sliver on a convex stretch of boundary is split even at the cost of caps",
+          "[refine]") {
+    const core::TetMesh input = aal_ring();
+    REQUIRE(input.faces.size() == 8);
+    const core::TetMesh out = check_rescue(input, 0, 7.5);  // the sliver, tet 0
+    CHECK(out.node_count() == input.node_count() + 1);
 }
 
 TEST_CASE("A sliver at an interior node near a surface edge: the node is placed anew", "[refine]") {
     const core::TetMesh input = jhu189_star();
-    const auto before = volume::check_tet_mesh(input);
-    INFO(before.summary());
-    REQUIRE(before.valid());
-    const auto q_before = volume::tet_quality(input);
-    REQUIRE(q_before.min_dihedral_deg < 1.5);  // the sliver, tet 6
-    TetTopology topo(input);
-    RefineOps ops(topo, RefineParams{});
-    REQUIRE(ops.insert_node(6, Objective::Combined));
-    REQUIRE(topo.check());
-    const core::TetMesh out = topo.compact();
-    const auto after = volume::check_tet_mesh(out);
-    INFO(after.summary());
-    CHECK(after.valid());
-    CHECK(after.volume == Approx(before.volume).epsilon(1e-12));
-    CHECK(same_surface(out, input));
-    CHECK(out.node_count() == input.node_count());  // node 8 replaced, not joined
+    const core::TetMesh out = check_rescue(input, 6, 1.5);  // the sliver, tet 6
+    CHECK(out.node_count() == input.node_count());          // node 8 replaced, not joined
     CHECK(out.tet_count() == input.tet_count());
-    const auto q_after = volume::tet_quality(out);
-    CHECK(q_after.min_dihedral_deg >= 10.0);
-    CHECK(q_after.skewness_over_08 <= q_before.skewness_over_08 + 8);  // the rescue's bound
 }
 
 TEST_CASE("Tets whose shape the surface fixes are counted and named", "[refine]") {
